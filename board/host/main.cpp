@@ -1,0 +1,8 @@
+#include <cstdio>
+
+#include "core/common/version.hpp"
+
+int main() {
+  std::printf("%s\n", ums::version_string());
+  return 0;
+}

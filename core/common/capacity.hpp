@@ -1,0 +1,31 @@
+#pragma once
+// Every compile-time capacity of the product, in one place. Runtime configuration may choose
+// smaller values, never larger (each Options::validate() checks against these). Changing a value
+// here changes the static memory footprint reported by `umsvins budget`.
+
+#include <cstddef>
+
+namespace ums::capacity {
+
+// Images
+inline constexpr int kMaxImageWidth = 1280;   // px, D455 IR max mode
+inline constexpr int kMaxImageHeight = 800;   // px
+inline constexpr int kMaxPyramidLevels = 4;   // the paper's 4-level 2D tracker
+
+// Front end
+inline constexpr std::size_t kMaxFeaturesPerCamera = 400;  // VINS-Fusion max_cnt is 150-200
+inline constexpr std::size_t kMaxFeatures = 2 * kMaxFeaturesPerCamera;
+
+// Sliding window (VINS-Fusion WINDOW_SIZE = 10 -> 11 states incl. the newest)
+inline constexpr std::size_t kWindowSize = 11;
+inline constexpr std::size_t kMaxLandmarks = 600;             // tracked in the window
+inline constexpr std::size_t kMaxObservationsPerLandmark = kWindowSize;
+
+// IMU
+inline constexpr std::size_t kMaxImuSamplesBetweenFrames = 512;  // 1 kHz IMU at 2 fps, bounded
+inline constexpr std::size_t kImuRingSize = 2048;                // samples buffered ahead of frames
+
+// Replay / HAL
+inline constexpr std::size_t kMaxPathLength = 4096;  // bytes, file paths built at start-up
+
+}  // namespace ums::capacity

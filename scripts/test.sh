@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# Builds and runs every test: on the host, then cross-built for aarch64 under qemu-user.
+# Usage: scripts/test.sh [host|aarch64|all]   (default all)
+set -euo pipefail
+
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+want="${1:-all}"
+case "$want" in host|aarch64|all) ;; *) echo "usage: scripts/test.sh [host|aarch64|all]" >&2; exit 2 ;; esac
+
+"$root/scripts/deps.sh" "$want"
+
+jobs="$(nproc)"
+status=0
+
+run_suite() {  # name build_dir [cmake args...]
+  local name="$1" dir="$2"; shift 2
+  echo "== $name: configure and build ($dir)"
+  cmake -S "$root" -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=Release "$@" >"$dir.configure.log" 2>&1 \
+    || { cat "$dir.configure.log"; return 1; }
+  cmake --build "$dir" -j "$jobs" >"$dir.build.log" 2>&1 \
+    || { tail -n 80 "$dir.build.log"; echo "$name: build failed (log: $dir.build.log)"; return 1; }
+  echo "== $name: ctest"
+  (cd "$dir" && ctest -j "$jobs" --output-on-failure --timeout 900)
+}
+
+mkdir -p "$root/build"
+if [[ "$want" == "host" || "$want" == "all" ]]; then
+  run_suite host "$root/build/host" || status=1
+fi
+if [[ "$want" == "aarch64" || "$want" == "all" ]]; then
+  run_suite aarch64 "$root/build/aarch64" \
+    -DCMAKE_TOOLCHAIN_FILE="$root/toolchains/aarch64-linux-gnu.cmake" -DUMS_BUILD_BENCHMARKS=OFF \
+    || status=1
+fi
+exit $status
