@@ -186,6 +186,33 @@ bool PngGrayReader::read(const char* path, std::uint8_t* dst, std::size_t capaci
   return ok;
 }
 
+bool read_png_size(const char* path, int* width, int* height) {
+  const int fd = ::open(path, O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return false;
+  unsigned char header[24];
+  std::size_t got = 0;
+  while (got < sizeof(header)) {
+    const ssize_t n = ::read(fd, header + got, sizeof(header) - got);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) break;
+    got += static_cast<std::size_t>(n);
+  }
+  ::close(fd);
+  // Signature, then the first chunk must be IHDR: length(4) "IHDR" width(4) height(4), big-endian.
+  if (got < sizeof(header) || png_sig_cmp(header, 0, 8) != 0 || std::memcmp(header + 12, "IHDR", 4) != 0) {
+    return false;
+  }
+  auto be32 = [&](int at) {
+    return (static_cast<std::uint32_t>(header[at]) << 24) | (static_cast<std::uint32_t>(header[at + 1]) << 16) |
+           (static_cast<std::uint32_t>(header[at + 2]) << 8) | static_cast<std::uint32_t>(header[at + 3]);
+  };
+  const std::uint32_t w = be32(16), h = be32(20);
+  if (w == 0 || h == 0 || w > 0x7fffffffu || h > 0x7fffffffu) return false;
+  *width = static_cast<int>(w);
+  *height = static_cast<int>(h);
+  return true;
+}
+
 bool read_png_gray8(const std::string& path, std::uint8_t* dst, std::size_t capacity, int* width,
                     int* height, std::string* error) {
   PngGrayReader reader;

@@ -20,6 +20,10 @@ namespace ums::hal {
 bool read_png_gray8(const std::string& path, std::uint8_t* dst, std::size_t capacity, int* width,
                     int* height, std::string* error);
 
+// Reads only the IHDR of a PNG (24 bytes): false when the file cannot be read or is not a PNG.
+// Allocates nothing.
+bool read_png_size(const char* path, int* width, int* height);
+
 // Writes image (any stride) as an 8-bit grey PNG. Returns false and fills *error on failure.
 bool write_png_gray8(const std::string& path, const ImageView& image, std::string* error);
 

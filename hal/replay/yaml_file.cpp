@@ -1,0 +1,171 @@
+#include "hal/replay/yaml_file.hpp"
+
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+#include <Eigen/SVD>
+#include <opencv2/core.hpp>
+
+namespace ums::hal {
+
+namespace {
+
+std::string format_number(double v) {
+  std::ostringstream out;
+  out.precision(12);
+  out << v;
+  return out.str();
+}
+
+std::string describe_node(const cv::FileNode& n) {
+  if (n.isNone()) return "(empty)";
+  if (n.isString()) return "'" + n.string() + "'";
+  if (n.isInt()) return std::to_string(static_cast<int>(n));
+  if (n.isReal()) return format_number(n.real());
+  if (n.isSeq()) {
+    std::string s = "[";
+    for (std::size_t i = 0; i < n.size(); ++i) {
+      if (i > 0) s += ", ";
+      if (i == 8) { s += "..."; break; }
+      s += describe_node(n[static_cast<int>(i)]);
+    }
+    return s + "]";
+  }
+  if (n.isMap()) return "(a map)";
+  return "(unknown)";
+}
+
+bool is_number(const cv::FileNode& n) {
+  return n.isInt() || (n.isReal() && std::isfinite(n.real()));
+}
+
+double to_number(const cv::FileNode& n) { return n.isInt() ? static_cast<double>(static_cast<int>(n)) : n.real(); }
+
+}  // namespace
+
+YamlFile::YamlFile(const std::string& path) : path_(path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error(path + ": cannot open");
+  std::ostringstream content;
+  content << in.rdbuf();
+  std::string text = content.str();
+  const bool add_directive = text.compare(0, 5, "%YAML") != 0;
+  if (add_directive) text = "%YAML:1.0\n" + text;
+  try {
+    storage_.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
+  } catch (const cv::Exception& e) {
+    // OpenCV puts "<name>(<line>): <problem>" into the function field of its parse errors.
+    const std::string& where = e.func;
+    const std::size_t open = where.rfind("(", where.find("): "));
+    const std::size_t close = where.find("): ");
+    if (open != std::string::npos && close != std::string::npos && close > open) {
+      long line = std::strtol(where.c_str() + open + 1, nullptr, 10);
+      if (add_directive) --line;
+      throw std::runtime_error(path + ":" + std::to_string(line) + ": YAML syntax error: " +
+                               where.substr(close + 3));
+    }
+    throw std::runtime_error(path + ": YAML syntax error: " + e.what());
+  }
+  if (!storage_.isOpened()) throw std::runtime_error(path + ": not a YAML file");
+  if (!storage_.root().isMap()) throw std::runtime_error(path + ": expected a YAML map of keys");
+}
+
+bool YamlFile::has(const std::string& key) const { return !storage_[key].empty(); }
+
+std::vector<std::string> YamlFile::keys() const { return storage_.root().keys(); }
+
+void YamlFile::fail(const std::string& key, const std::string& problem) const {
+  throw std::runtime_error(path_ + ": key '" + key + "': " + problem);
+}
+
+std::string YamlFile::describe(const std::string& key) const { return describe_node(storage_[key]); }
+
+cv::FileNode YamlFile::node(const std::string& key) const {
+  cv::FileNode n = storage_[key];
+  if (n.empty()) fail(key, "missing");
+  return n;
+}
+
+double YamlFile::number(const std::string& key) const {
+  const cv::FileNode n = node(key);
+  if (!is_number(n)) fail(key, "expected a number, got " + describe_node(n));
+  return to_number(n);
+}
+
+int YamlFile::integer(const std::string& key) const {
+  const cv::FileNode n = node(key);
+  if (n.isInt()) return static_cast<int>(n);
+  if (n.isReal() && std::isfinite(n.real()) && n.real() == std::floor(n.real()) &&
+      std::fabs(n.real()) < 2e9) {
+    return static_cast<int>(n.real());
+  }
+  fail(key, "expected an integer, got " + describe_node(n));
+}
+
+std::string YamlFile::text(const std::string& key) const {
+  const cv::FileNode n = node(key);
+  if (!n.isString()) fail(key, "expected a string, got " + describe_node(n));
+  return n.string();
+}
+
+std::vector<double> YamlFile::numbers(const std::string& key, std::size_t count) const {
+  const cv::FileNode n = node(key);
+  const std::string expected = "expected a list of " + std::to_string(count) + " numbers, got ";
+  if (!n.isSeq() || n.size() != count) fail(key, expected + describe_node(n));
+  std::vector<double> values(count);
+  for (std::size_t i = 0; i < count; ++i) {
+    const cv::FileNode e = n[static_cast<int>(i)];
+    if (!is_number(e)) fail(key, expected + describe_node(n));
+    values[i] = to_number(e);
+  }
+  return values;
+}
+
+std::vector<double> YamlFile::matrix(const std::string& key, int rows, int cols) const {
+  const cv::FileNode n = node(key);
+  const std::string expected = "expected a " + std::to_string(rows) + "x" + std::to_string(cols) +
+                               " matrix {rows: " + std::to_string(rows) + ", cols: " +
+                               std::to_string(cols) + ", data: [" + std::to_string(rows * cols) +
+                               " numbers]}";
+  if (!n.isMap()) fail(key, expected + ", got " + describe_node(n));
+  const cv::FileNode r = n["rows"], c = n["cols"], d = n["data"];
+  if (!r.isInt() || !c.isInt() || static_cast<int>(r) != rows || static_cast<int>(c) != cols) {
+    fail(key, expected + ", got rows: " + describe_node(r) + ", cols: " + describe_node(c));
+  }
+  if (!d.isSeq() || d.size() != static_cast<std::size_t>(rows * cols)) {
+    fail(key, expected + ", got data: " + describe_node(d) + " (" + std::to_string(d.size()) + " values)");
+  }
+  std::vector<double> values(static_cast<std::size_t>(rows * cols));
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    const cv::FileNode e = d[static_cast<int>(i)];
+    if (!is_number(e)) fail(key, "data[" + std::to_string(i) + "] is not a number: " + describe_node(e));
+    values[i] = to_number(e);
+  }
+  return values;
+}
+
+Eigen::Isometry3d YamlFile::transform(const std::string& key) const {
+  const std::vector<double> m = matrix(key, 4, 4);
+  const Eigen::Matrix4d T = Eigen::Map<const Eigen::Matrix<double, 4, 4, Eigen::RowMajor>>(m.data());
+  if (std::fabs(T(3, 0)) > 1e-9 || std::fabs(T(3, 1)) > 1e-9 || std::fabs(T(3, 2)) > 1e-9 ||
+      std::fabs(T(3, 3) - 1.0) > 1e-9) {
+    fail(key, "last row must be [0, 0, 0, 1]");
+  }
+  const Eigen::Matrix3d R = T.topLeftCorner<3, 3>();
+  const double error = (R.transpose() * R - Eigen::Matrix3d::Identity()).norm();
+  if (!(error < 1e-3) || R.determinant() < 0.0) {
+    fail(key, "rotation part is not a rotation (|R^T R - I| = " + format_number(error) +
+                  ", det = " + format_number(R.determinant()) + ")");
+  }
+  // Nearest rotation: removes the ~1e-6 non-orthogonality of printed calibrations.
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(R, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Isometry3d out = Eigen::Isometry3d::Identity();
+  out.linear() = svd.matrixU() * svd.matrixV().transpose();
+  out.translation() = T.topRightCorner<3, 1>();
+  return out;
+}
+
+}  // namespace ums::hal

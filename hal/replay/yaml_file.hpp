@@ -1,0 +1,53 @@
+#pragma once
+// Start-up reading of YAML files through cv::FileStorage (OpenCV's "%YAML:1.0" dialect, as EuRoC
+// sensor.yaml and VINS-Fusion configs are written), with type-checked getters whose errors name
+// the file, the key and the offending value. Files without a %YAML directive (common in
+// EuRoC-derived datasets) are accepted: cv::FileStorage refuses them, so the text is parsed with a
+// directive added and line numbers are corrected back.
+//
+// Not for the hot path: cv::FileStorage and the messages allocate.
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <opencv2/core/persistence.hpp>
+
+namespace ums::hal {
+
+class YamlFile {
+ public:
+  // Throws std::runtime_error "<path>: cannot open (...)" or "<path>:<line>: YAML syntax error: ...".
+  explicit YamlFile(const std::string& path);
+
+  const std::string& path() const { return path_; }
+  bool has(const std::string& key) const;
+  std::vector<std::string> keys() const;  // top-level keys in file order
+
+  // Getters throw std::runtime_error "<path>: key '<key>': <problem>" (missing key, wrong type).
+  double number(const std::string& key) const;   // finite real or integer
+  int integer(const std::string& key) const;     // integer (a real with a fraction is refused)
+  std::string text(const std::string& key) const;  // string scalar
+  std::vector<double> numbers(const std::string& key, std::size_t count) const;  // a flat list
+  // A rows x cols matrix stored as a map {rows, cols, data: [...]} (EuRoC T_BS) or as an
+  // !!opencv-matrix (VINS-Fusion body_T_cam0, which adds dt), row-major.
+  std::vector<double> matrix(const std::string& key, int rows, int cols) const;
+  // A 4x4 rigid transform: matrix() plus a check that the last row is [0 0 0 1] and the rotation
+  // is orthonormal (|R^T R - I| < 1e-3; Kalibr output carries ~1e-6), re-orthonormalized.
+  Eigen::Isometry3d transform(const std::string& key) const;
+
+  // "<path>: key '<key>': <problem>" for callers that check values themselves.
+  [[noreturn]] void fail(const std::string& key, const std::string& problem) const;
+
+  // The value of a scalar as text for messages ("0.5", "abc", "[list]").
+  std::string describe(const std::string& key) const;
+
+ private:
+  cv::FileNode node(const std::string& key) const;  // throws when missing
+
+  std::string path_;
+  cv::FileStorage storage_;
+};
+
+}  // namespace ums::hal
