@@ -136,6 +136,9 @@ void EurocReaderOptions::validate() const {
     throw std::invalid_argument("EurocReaderOptions.duration_s must be >= 0 s (0 = to the end), got " +
                                 std::to_string(duration_s));
   }
+  if (!std::isfinite(imu_lead_s) || imu_lead_s < 0.0 || imu_lead_s > 10.0) {
+    throw std::invalid_argument("EurocReaderOptions.imu_lead_s must be in 0..10 s, got " + std::to_string(imu_lead_s));
+  }
   if (pair_tolerance_ns < 0) {
     throw std::invalid_argument("EurocReaderOptions.pair_tolerance_ns must be >= 0 ns, got " +
                                 std::to_string(pair_tolerance_ns));
@@ -156,6 +159,7 @@ struct EurocReader::Impl {
   std::size_t total_pairs = 0;
   std::int64_t window_start_ns = 0;
   std::int64_t window_end_ns = 0;
+  std::int64_t imu_start_ns = 0;
 
   CameraStream cam[2];
   ImuStream imu;
@@ -194,7 +198,7 @@ struct EurocReader::Impl {
       const CsvReader::Result r = imu.read();
       if (r == CsvReader::Result::kError) fail_stream(imu.csv.error());
       if (r != CsvReader::Result::kRow || imu.row.t_ns > window_end_ns) return imu.has_row = false;
-      if (imu.row.t_ns >= window_start_ns) return imu.has_row = true;
+      if (imu.row.t_ns >= imu_start_ns) return imu.has_row = true;
     }
   }
 
@@ -322,6 +326,7 @@ void EurocReader::open(const std::string& dataset_dir, const EurocReaderOptions&
 
   // Validation pass over whole files: every row parsed and ordered, before anything streams.
   m.window_start_ns = std::numeric_limits<std::int64_t>::min();
+  m.imu_start_ns = m.window_start_ns;
   m.window_end_ns = kNoLimitNs;
   EurocFileSummary& sum = m.summary;
   sum = EurocFileSummary{};
@@ -357,6 +362,7 @@ void EurocReader::open(const std::string& dataset_dir, const EurocReaderOptions&
                                 std::to_string(length_s) + " s)");
   }
   m.window_start_ns = sum.cam0_first_t_ns + static_cast<std::int64_t>(std::llround(options.start_s * 1e9));
+  m.imu_start_ns = m.window_start_ns - static_cast<std::int64_t>(std::llround(options.imu_lead_s * 1e9));
   m.window_end_ns = options.duration_s > 0.0
                         ? m.window_start_ns + static_cast<std::int64_t>(std::llround(options.duration_s * 1e9))
                         : kNoLimitNs;

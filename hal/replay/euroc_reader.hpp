@@ -11,7 +11,8 @@
 // Stream order: before a frame at t, every IMU sample with t_imu <= t. Frames are pairs of cam0
 // and cam1 rows whose timestamps differ by at most pair_tolerance_ns (the pair takes cam0's
 // time); a row without partner is counted and skipped, as is a pair with a PNG that cannot be
-// decoded. Only rows inside the replay window [first cam0 time + start_s, + duration_s] count.
+// decoded. Only rows inside the replay window [first cam0 time + start_s, + duration_s] count;
+// IMU rows from imu_lead_s before the window's start are streamed too.
 
 #include <cstddef>
 #include <cstdint>
@@ -33,6 +34,8 @@ struct EurocReaderOptions {
   double duration_s = 0.0;             // s of replay after start; 0 = to the end
   std::int64_t pair_tolerance_ns = 0;  // ns; cam0/cam1 rows this close form a pair (EuRoC: exact)
   bool imu_after_last_frame = false;   // also stream IMU rows after the last frame (to window end)
+  double imu_lead_s = 0.1;             // s of IMU streamed before the window's start, so the first
+                                       // frame has IMU on both sides (attitude, interpolation)
 
   void validate() const;  // throws std::invalid_argument naming the field and value
 };
@@ -91,7 +94,7 @@ class EurocReader {
   std::size_t total_pairs_estimate() const;
   std::int64_t first_frame_t_ns() const;
   std::int64_t last_frame_t_ns() const;
-  std::int64_t window_start_t_ns() const;
+  std::int64_t window_start_t_ns() const;  // frames; IMU starts imu_lead_s earlier
   std::int64_t window_end_t_ns() const;  // INT64_MAX when the window runs to the end
 
   bool has_groundtruth() const;

@@ -235,8 +235,9 @@ TEST_CASE("EuRoC micro: start and duration select a window of frames and IMU", "
   CHECK(log.frames == 20);
   CHECK((log.first_frame - kCam0FirstNs) == Approx(1.0e9).margin(1e3));
   CHECK((log.last_frame - kCam0FirstNs) == Approx(1.95e9).margin(1e3));
-  CHECK(log.first_imu >= reader.window_start_t_ns());
-  CHECK(log.imu == 193);  // (1.95 - 0.99) s at 200 Hz: samples from t0+0.990 to t0+1.950
+  // IMU from 0.1 s (imu_lead_s) before the window start (t0 + 0.89 s) to the last frame (t0 + 1.95 s).
+  CHECK((log.first_imu - kCam0FirstNs) == Approx(0.89e9).margin(5e6));
+  CHECK(log.imu == 213);
   CHECK(reader.counters().unpaired_right == 0);  // the unpaired right rows lie outside the window
   CHECK(log.order_ok);
 }
@@ -266,6 +267,9 @@ TEST_CASE("EuRoC reader options are validated", "[euroc]") {
   options = {};
   options.pair_tolerance_ns = -1;
   CHECK_THAT(open_error(dir, options), Catch::Contains("pair_tolerance_ns"));
+  options = {};
+  options.imu_lead_s = 11;
+  CHECK_THAT(open_error(dir, options), Catch::Contains("imu_lead_s must be in 0..10 s"));
 }
 
 TEST_CASE("EuRoC reader: missing folders and files are named", "[euroc][malformed]") {

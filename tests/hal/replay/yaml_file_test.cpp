@@ -1,1 +1,59 @@
+#include "hal/replay/yaml_file.hpp"
+
 #include <catch2/catch.hpp>
+#include <fstream>
+
+#include "tests/common/test_paths.hpp"
+
+using ums::hal::YamlFile;
+
+namespace {
+std::string error_of(const YamlFile& y, void (*f)(const YamlFile&)) {
+  try {
+    f(y);
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  return "";
+}
+}  // namespace
+
+TEST_CASE("YamlFile reads typed values and names file, key and value on errors", "[yaml]") {
+  const std::string path = ums::test::make_temp_dir("yaml_file") + "/a.yaml";
+  std::ofstream(path) << "%YAML:1.0\nreal: 1.5e-3 # comment\nint: 20\nfrac: 2.5\nname: pinhole\nword: abc\n"
+                         "list: [1, 2.5, 3]\n"
+                         "T: !!opencv-matrix\n   rows: 4\n   cols: 4\n   dt: d\n"
+                         "   data: [0, -1, 0, 0.1, 1, 0, 0, 0.2, 0, 0, 1, 0.3, 0, 0, 0, 1]\n"
+                         "Bad: {rows: 4, cols: 4, data: [2, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]}\n";
+  const YamlFile y(path);
+  CHECK(y.number("real") == 1.5e-3);
+  CHECK(y.number("int") == 20.0);
+  CHECK(y.integer("int") == 20);
+  CHECK(y.text("name") == "pinhole");
+  CHECK(y.numbers("list", 3) == std::vector<double>{1, 2.5, 3});
+  const Eigen::Isometry3d T = y.transform("T");
+  CHECK(T.translation().z() == 0.3);
+  CHECK(T.linear()(0, 1) == Approx(-1.0));
+  CHECK(y.keys().size() == 8);
+  CHECK(y.has("word"));
+  CHECK_FALSE(y.has("nope"));
+
+  CHECK_THAT(error_of(y, [](const YamlFile& f) { f.number("word"); }),
+             Catch::Contains("a.yaml: key 'word': expected a number, got 'abc'"));
+  CHECK_THAT(error_of(y, [](const YamlFile& f) { f.integer("frac"); }),
+             Catch::Contains("key 'frac': expected an integer, got 2.5"));
+  CHECK_THAT(error_of(y, [](const YamlFile& f) { f.numbers("list", 4); }),
+             Catch::Contains("key 'list': expected a list of 4 numbers, got [1, 2.5, 3]"));
+  CHECK_THAT(error_of(y, [](const YamlFile& f) { f.text("missing"); }), Catch::Contains("key 'missing': missing"));
+  CHECK_THAT(error_of(y, [](const YamlFile& f) { f.matrix("T", 3, 3); }), Catch::Contains("key 'T': expected a 3x3 matrix"));
+  CHECK_THAT(error_of(y, [](const YamlFile& f) { f.transform("Bad"); }), Catch::Contains("key 'Bad': rotation part is not a rotation"));
+}
+
+TEST_CASE("YamlFile syntax errors give the file's own line, with or without %YAML", "[yaml]") {
+  const std::string dir = ums::test::make_temp_dir("yaml_syntax");
+  std::ofstream(dir + "/with.yaml") << "%YAML:1.0\na: 1\nb: [1, 2\n";
+  std::ofstream(dir + "/without.yaml") << "a: 1\nb: [1, 2\n";
+  CHECK_THROWS_WITH(YamlFile(dir + "/with.yaml"), Catch::Contains("with.yaml:3: YAML syntax error"));
+  CHECK_THROWS_WITH(YamlFile(dir + "/without.yaml"), Catch::Contains("without.yaml:2: YAML syntax error"));
+  CHECK_THROWS_WITH(YamlFile(dir + "/absent.yaml"), Catch::Contains("absent.yaml: cannot open"));
+}
