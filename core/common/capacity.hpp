@@ -29,3 +29,14 @@ inline constexpr std::size_t kImuRingSize = 2048;                // samples buff
 inline constexpr std::size_t kMaxPathLength = 4096;  // bytes, file paths built at start-up
 
 }  // namespace ums::capacity
+
+// D455 HAL (hal/d455)
+namespace ums::capacity {
+inline constexpr int kD455MaxV4l2Buffers = 8;             // mmap buffers per node; LRS uses 4
+inline constexpr std::size_t kD455MaxPendingMeta = 8;     // metadata buffers waiting for their frame
+inline constexpr std::size_t kD455IioReadRecords = 64;    // IIO scan records read per read() call
+inline constexpr std::size_t kD455MaxIioRecordBytes = 64; // one IIO scan record (D455: 24 bytes)
+inline constexpr std::size_t kD455AccelHistory = 32;      // accel samples kept to bracket gyro stamps
+inline constexpr std::size_t kD455GyroPending = 64;       // gyro samples waiting for a later accel
+inline constexpr std::size_t kD455ImuOutRing = 256;       // fused samples waiting for the consumer
+}  // namespace ums::capacity
