@@ -40,3 +40,9 @@ inline constexpr std::size_t kD455AccelHistory = 32;      // accel samples kept 
 inline constexpr std::size_t kD455GyroPending = 64;       // gyro samples waiting for a later accel
 inline constexpr std::size_t kD455ImuOutRing = 256;       // fused samples waiting for the consumer
 }  // namespace ums::capacity
+
+// Front end (issue 6): corner candidates kept per detect() call (the strongest NMS maxima survive
+// in a bounded heap; 4096 is ~10x what a 752x480 textured image yields above the threshold).
+namespace ums::capacity {
+inline constexpr std::size_t kMaxCornerCandidates = 4096;  // NMS maxima per detect() call
+}  // namespace ums::capacity

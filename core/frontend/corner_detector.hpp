@@ -1,0 +1,71 @@
+#pragma once
+// Shi-Tomasi corners (the minimum eigenvalue of the 3x3-summed structure tensor of Sobel
+// gradients), 3x3 non-maximum suppression, a threshold relative to the strongest response with an
+// absolute floor, strongest-first selection under a minimum-distance mask, and sub-pixel
+// refinement of each accepted corner (the paper's "sub-pixel plane", Sec. III-A.1). The
+// refinement solves for the point q where every gradient g_i in a window is orthogonal to
+// (p_i - q): sum_i g_i g_i^T (p_i - q) = 0, iterated on bilinearly sampled gradients.
+//
+// All buffers (response image, mask, candidate heap) are allocated at construction.
+
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/common/capacity.hpp"
+#include "core/common/image_view.hpp"
+
+namespace ums {
+
+struct DetectorOptions {
+  float quality_level = 0.003f;   // fraction of the strongest response (OpenCV/VINS use 0.01; with
+                                  // glare in view, e.g. EuRoC V1 windows, 0.01 leaves 100 corners)
+  float min_response = 8.0f;      // (grey/px)^2, absolute floor: keeps sensor noise out of flat areas
+  float min_distance_px = 25.0f;  // px, between any two features (new or existing)
+  int border_px = 10;             // px, no corner closer to the image edge
+  int subpix_half_window = 4;     // px, refinement window is (2h+1)^2
+  int subpix_max_iterations = 10;
+  float subpix_epsilon_px = 0.01f;  // px, stop when the update is smaller
+
+  void validate() const;  // throws std::invalid_argument naming the field and value
+};
+
+class CornerDetector {
+ public:
+  static constexpr int kMaxSubpixHalfWindow = 8;
+
+  CornerDetector(int width, int height);  // start-up: allocates the buffers
+
+  // Mask: features may only be placed where no disk was blocked since the last clear.
+  void clear_mask();
+  void block_disk(const Eigen::Vector2f& center_px, float radius_px);
+  bool is_free(const Eigen::Vector2f& p_px) const;
+
+  // Detects up to max_new corners in free areas of image, writes their refined positions (px)
+  // strongest first and blocks a min_distance disk around each. Returns the count. The image
+  // size must be the constructed one (otherwise returns 0).
+  int detect(const ImageView& image, int max_new, const DetectorOptions& options, Eigen::Vector2f* out_px);
+
+  // The Shi-Tomasi response of the last detect() at integer pixel (x, y), (grey/px)^2.
+  float response(int x, int y) const { return response_[static_cast<std::size_t>(y) * static_cast<std::size_t>(width_) + static_cast<std::size_t>(x)]; }
+
+  // Iterative sub-pixel refinement of *p (px) in place. False when it diverged (moved farther
+  // than the window half size) or the window is untextured; *p is then left unchanged.
+  static bool refine_subpixel(const ImageView& image, const DetectorOptions& options, Eigen::Vector2f* p);
+
+ private:
+  struct Candidate {
+    float score;
+    int x, y;
+  };
+  void compute_response(const ImageView& image);
+
+  int width_ = 0, height_ = 0;
+  std::vector<float> response_;
+  std::vector<float> rows_;  // 3 rolling rows of Ixx, Ixy, Iyy products (9 * width)
+  std::vector<std::uint8_t> mask_;
+  std::vector<Candidate> heap_;  // capacity::kMaxCornerCandidates, used as a bounded min-heap
+};
+
+}  // namespace ums

@@ -1,0 +1,426 @@
+#include "core/frontend/frontend.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace ums {
+
+namespace {
+
+Eigen::Matrix3f skew(const Eigen::Vector3f& v) {
+  Eigen::Matrix3f S;
+  S << 0.0f, -v.z(), v.y(), v.z(), 0.0f, -v.x(), -v.y(), v.x(), 0.0f;
+  return S;
+}
+
+const Eigen::Vector2f kNan2(std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::quiet_NaN());
+const Eigen::Vector3f kNan3(std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::quiet_NaN(),
+                            std::numeric_limits<float>::quiet_NaN());
+
+// Depths (m) of the extra stereo starting points tried for new features.
+constexpr int kStereoDepthHypotheses = 3;
+constexpr float kStereoDepthsM[kStereoDepthHypotheses] = {2.0f, 1.0f, 0.5f};
+
+}  // namespace
+
+void FrontendOptions::validate() const {
+  auto fail = [](const char* field, double v) {
+    throw std::invalid_argument(std::string("FrontendOptions.") + field + " out of range: " + std::to_string(v));
+  };
+  if (max_cnt < 1 || max_cnt > static_cast<int>(capacity::kMaxFeaturesPerCamera)) fail("max_cnt", max_cnt);
+  if (levels_2d < 1 || levels_2d > capacity::kMaxPyramidLevels) fail("levels_2d", levels_2d);
+  if (levels_3d < 1 || levels_3d > levels_2d) fail("levels_3d", levels_3d);
+  if (levels_stereo < 1 || levels_stereo > capacity::kMaxPyramidLevels) fail("levels_stereo", levels_stereo);
+  if (!(fb_max_px > 0.0f)) fail("fb_max_px", static_cast<double>(fb_max_px));
+  if (!(stereo_fb_max_px > 0.0f)) fail("stereo_fb_max_px", static_cast<double>(stereo_fb_max_px));
+  if (!(stereo_epipolar_max_px > 0.0f)) fail("stereo_epipolar_max_px", static_cast<double>(stereo_epipolar_max_px));
+  klt.validate();
+  detector.validate();
+  ransac.validate();
+}
+
+Frontend::Frontend(const FrontendOptions& options, const RigCalibration& calib) : options_(options) {
+  options_.validate();
+  for (int c = 0; c < 2; ++c) {
+    const CameraCalibration& cc = calib.cam[c];
+    if (cc.width <= 0 || cc.height <= 0 || cc.width > capacity::kMaxImageWidth || cc.height > capacity::kMaxImageHeight ||
+        !(cc.fx > 0.0) || !(cc.fy > 0.0)) {
+      throw std::runtime_error("Frontend: calibration cam" + std::to_string(c) + " invalid (size " + std::to_string(cc.width) +
+                               "x" + std::to_string(cc.height) + ", fx " + std::to_string(cc.fx) + ")");
+    }
+    cam_[c] = Camera::from_calibration(cc);
+  }
+  const Eigen::Isometry3d T_c1_c0 = calib.cam[1].T_b_c.inverse() * calib.cam[0].T_b_c;
+  R_c1_c0_ = T_c1_c0.linear().cast<float>();
+  t_c1_c0_ = T_c1_c0.translation().cast<float>();
+  E_c1_c0_ = skew(t_c1_c0_.normalized()) * R_c1_c0_;
+  const int levels = std::max({options_.levels_2d, options_.levels_3d, options_.levels_stereo});
+  for (int k = 0; k < 2; ++k) {
+    for (int c = 0; c < 2; ++c) pyr_[k][c] = std::make_unique<ImagePyramid>(cam_[c].width(), cam_[c].height(), levels);
+  }
+  detector_ = std::make_unique<CornerDetector>(std::max(cam_[0].width(), cam_[1].width()),
+                                               std::max(cam_[0].height(), cam_[1].height()));
+  if (cam_[0].width() != cam_[1].width() || cam_[0].height() != cam_[1].height()) {
+    throw std::runtime_error("Frontend: cam0 and cam1 must have the same image size");
+  }
+  rng_.state = options_.ransac.seed != 0 ? options_.ransac.seed : 0x2545F491u;
+}
+
+Frontend::~Frontend() = default;
+
+void Frontend::reset() {
+  left_.clear();
+  right_.clear();
+  has_prev_ = false;
+  prev_right_valid_ = false;
+  stereo_offset_px_.setZero();
+}
+
+float Frontend::stereo_epipolar_distance_px(const Eigen::Vector3f& bl, const Eigen::Vector3f& br) const {
+  // Line l = E b_l in the cam1 z = 1 plane; distance of x_r = b_r / z_r to it.
+  const Eigen::Vector3f l = E_c1_c0_ * bl;
+  const float den = std::sqrt(l.x() * l.x() + l.y() * l.y());
+  if (!(den > 1e-12f) || !(br.z() > 1e-6f)) return std::numeric_limits<float>::infinity();
+  const Eigen::Vector3f xr = br / br.z();
+  return std::abs(l.dot(xr)) / den * cam_[1].fx();
+}
+
+Eigen::Vector2f Frontend::predict(const Camera& cam, const Eigen::Matrix3f& R_curr_prev, const Eigen::Vector2f& uv) const {
+  Eigen::Vector3f b;
+  Eigen::Vector2f out;
+  if (!cam.unproject(uv, &b) || !cam.project(R_curr_prev * b, &out) || !cam.in_image(out)) return uv;
+  return out;
+}
+
+void Frontend::track_left(const Eigen::Matrix3f* R_curr_prev, FrontendFrameStats* st) {
+  const ImagePyramid& prev = *pyr_[1 - cur_][0];
+  const ImagePyramid& curr = *pyr_[cur_][0];
+  std::size_t w = 0;
+  for (std::size_t i = 0; i < left_.size(); ++i) {
+    LeftTrack t = left_[i];
+    const Eigen::Vector2f guess = R_curr_prev != nullptr ? predict(cam_[0], *R_curr_prev, t.uv) : t.uv;
+    int levels = t.stereo ? options_.levels_3d : options_.levels_2d;
+    Eigen::Vector2f p = guess;
+    Status s = klt_track(prev, curr, levels, options_.klt, t.uv, &p);
+    if (s != Status::kOk && t.stereo && options_.levels_2d > levels) {
+      // The paper's split: 3D features try the cheap 2-level pyramid first, then all 4 levels.
+      ++st->retried_3d;
+      levels = options_.levels_2d;
+      p = guess;
+      s = klt_track(prev, curr, levels, options_.klt, t.uv, &p);
+      if (s == Status::kOk) ++st->retried_3d_ok;
+    }
+    if (s != Status::kOk) {
+      ++st->lost_klt;
+      continue;
+    }
+    Eigen::Vector2f back = t.uv;
+    if (klt_track(curr, prev, levels, options_.klt, p, &back) != Status::kOk ||
+        (back - t.uv).squaredNorm() > options_.fb_max_px * options_.fb_max_px) {
+      ++st->lost_fb;
+      continue;
+    }
+    Eigen::Vector3f b;
+    if (!cam_[0].unproject(p, &b)) {
+      ++st->lost_klt;
+      continue;
+    }
+    b_prev_[w] = t.bearing;
+    b_curr_[w] = b;
+    t.right_guess = t.stereo ? Eigen::Vector2f(t.uv_right + (p - t.uv)) : kNan2;
+    t.uv = p;
+    t.bearing = b;
+    left_[w++] = t;
+  }
+  left_.resize(w);
+  st->tracked_left = static_cast<int>(w);
+  if (options_.use_ransac && w >= 8) {
+    int n_in = 0;
+    if (ransac_essential(b_prev_, b_curr_, static_cast<int>(w), cam_[0].fx(), options_.ransac, &rng_, inlier_, &n_in) ==
+        Status::kOk) {
+      std::size_t k = 0;
+      for (std::size_t i = 0; i < w; ++i) {
+        if (inlier_[i] != 0) left_[k++] = left_[i];
+      }
+      st->lost_ransac += static_cast<int>(w - k);
+      left_.resize(k);
+    }
+  }
+}
+
+void Frontend::track_right(const Eigen::Matrix3f* R_curr_prev, FrontendFrameStats* st) {
+  const ImagePyramid& prev = *pyr_[1 - cur_][1];
+  const ImagePyramid& curr = *pyr_[cur_][1];
+  Eigen::Matrix3f R1;
+  if (R_curr_prev != nullptr) R1 = R_c1_c0_ * (*R_curr_prev) * R_c1_c0_.transpose();
+  const int levels = options_.levels_2d;
+  std::size_t w = 0;
+  for (std::size_t i = 0; i < right_.size(); ++i) {
+    RightTrack t = right_[i];
+    Eigen::Vector2f p = R_curr_prev != nullptr ? predict(cam_[1], R1, t.uv) : t.uv;
+    if (klt_track(prev, curr, levels, options_.klt, t.uv, &p) != Status::kOk) {
+      ++st->lost_klt;
+      continue;
+    }
+    Eigen::Vector2f back = t.uv;
+    if (klt_track(curr, prev, levels, options_.klt, p, &back) != Status::kOk ||
+        (back - t.uv).squaredNorm() > options_.fb_max_px * options_.fb_max_px) {
+      ++st->lost_fb;
+      continue;
+    }
+    Eigen::Vector3f b;
+    if (!cam_[1].unproject(p, &b)) {
+      ++st->lost_klt;
+      continue;
+    }
+    b_prev_[w] = t.bearing;
+    b_curr_[w] = b;
+    t.uv = p;
+    t.bearing = b;
+    right_[w++] = t;
+  }
+  right_.resize(w);
+  st->tracked_right = static_cast<int>(w);
+  if (options_.use_ransac && w >= 8) {
+    int n_in = 0;
+    if (ransac_essential(b_prev_, b_curr_, static_cast<int>(w), cam_[1].fx(), options_.ransac, &rng_, inlier_, &n_in) ==
+        Status::kOk) {
+      std::size_t k = 0;
+      for (std::size_t i = 0; i < w; ++i) {
+        if (inlier_[i] != 0) right_[k++] = right_[i];
+      }
+      st->lost_ransac += static_cast<int>(w - k);
+      right_.resize(k);
+    }
+  }
+}
+
+void Frontend::thin_crowded(FrontendFrameStats* st) {
+  // Longest tracks first (ties: older id first), each blocks a min_distance disk; a track that
+  // falls inside an earlier disk is dropped, as VINS-Fusion's setMask does.
+  const std::size_t n = left_.size();
+  for (std::size_t i = 0; i < n; ++i) order_[i] = static_cast<std::uint16_t>(i);
+  std::sort(order_, order_ + n, [this](std::uint16_t a, std::uint16_t b) {
+    if (left_[a].length != left_[b].length) return left_[a].length > left_[b].length;
+    return left_[a].id < left_[b].id;
+  });
+  detector_->clear_mask();
+  for (std::size_t k = 0; k < n; ++k) {
+    LeftTrack& t = left_[order_[k]];
+    if (!detector_->is_free(t.uv)) {
+      t.length = 0;  // marks removal
+      continue;
+    }
+    detector_->block_disk(t.uv, options_.detector.min_distance_px);
+  }
+  std::size_t w = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (left_[i].length != 0) left_[w++] = left_[i];
+  }
+  st->lost_crowding += static_cast<int>(n - w);
+  left_.resize(w);
+}
+
+void Frontend::detect_left(FrontendFrameStats* st) {
+  const int total = static_cast<int>(left_.size() + right_.size());
+  const int budget = std::min(options_.max_cnt - total, static_cast<int>(kCap - left_.size()));
+  if (budget <= 0) return;
+  const int found = detector_->detect(pyr_[cur_][0]->level(0), budget, options_.detector, new_px_);
+  for (int i = 0; i < found; ++i) {
+    LeftTrack t;
+    if (!cam_[0].unproject(new_px_[i], &t.bearing)) continue;
+    t.id = next_id_++;
+    t.length = 0;  // incremented with every observation in process()
+    t.stereo = false;
+    t.uv = new_px_[i];
+    t.right_guess = kNan2;
+    left_.push_back(t);
+    ++st->new_left;
+  }
+}
+
+void Frontend::match_stereo(FrontendFrameStats* st) {
+  const ImagePyramid& L = *pyr_[cur_][0];
+  const ImagePyramid& R = *pyr_[cur_][1];
+  Eigen::Vector2f offset_sum = Eigen::Vector2f::Zero();
+  int offset_n = 0;
+  double sq_sum = 0.0;
+  for (LeftTrack& t : left_) {
+    ++st->stereo_attempts;
+    // Starting point: the previous match moved with the left flow, else the point at infinity
+    // (rotation only) shifted by the mean disparity of the last frame's matches.
+    Eigen::Vector2f inf_px;
+    const bool inf_ok = cam_[1].project(R_c1_c0_ * t.bearing, &inf_px);
+    Eigen::Vector2f guess = t.right_guess;
+    if (!std::isfinite(guess.x())) guess = inf_ok ? Eigen::Vector2f(inf_px + stereo_offset_px_) : t.uv;
+    t.right_guess = guess;
+    t.stereo = false;
+    // New features (no match history) also try starting points along the epipolar line at
+    // finite depths: near points (the floor below the camera) have disparities far beyond what
+    // the pyramid recovers from the infinity guess. Older features keep their single guess.
+    const int n_hyp = (t.length == 0) ? 1 + kStereoDepthHypotheses : 1;
+    Eigen::Vector2f pr = guess;
+    Eigen::Vector3f br = Eigen::Vector3f::UnitZ();
+    bool matched = false, epipolar_failed = false;
+    float d = 0.0f;
+    for (int h = 0; h < n_hyp && !matched; ++h) {
+      Eigen::Vector2f start = guess;
+      if (h > 0 && !cam_[1].project(R_c1_c0_ * (t.bearing * kStereoDepthsM[h - 1]) + t_c1_c0_, &start)) continue;
+      pr = start;
+      if (klt_track(L, R, options_.levels_stereo, options_.klt, t.uv, &pr) != Status::kOk) continue;
+      Eigen::Vector2f back = t.uv;
+      if (klt_track(R, L, options_.levels_stereo, options_.klt, pr, &back) != Status::kOk ||
+          (back - t.uv).squaredNorm() > options_.stereo_fb_max_px * options_.stereo_fb_max_px) {
+        continue;
+      }
+      if (!cam_[1].unproject(pr, &br)) continue;
+      d = stereo_epipolar_distance_px(t.bearing, br);
+      if (!(d <= options_.stereo_epipolar_max_px)) {
+        epipolar_failed = true;
+        continue;
+      }
+      matched = true;
+    }
+    if (!matched) {
+      ++(epipolar_failed ? st->stereo_rejected_epipolar : st->stereo_rejected_klt);
+      continue;
+    }
+    t.stereo = true;
+    t.uv_right = pr;
+    t.bearing_right = br;
+    sq_sum += static_cast<double>(d) * static_cast<double>(d);
+    if (inf_ok) {
+      offset_sum += pr - inf_px;
+      ++offset_n;
+    }
+  }
+  const int n3 = offset_n;
+  if (n3 > 0) stereo_offset_px_ = offset_sum / static_cast<float>(n3);
+  int n_stereo = 0;
+  for (const LeftTrack& t : left_) n_stereo += t.stereo ? 1 : 0;
+  st->stereo_epipolar_rms_px = n_stereo > 0 ? static_cast<float>(std::sqrt(sq_sum / n_stereo)) : 0.0f;
+}
+
+void Frontend::detect_right(FrontendFrameStats* st) {
+  const int total = static_cast<int>(left_.size() + right_.size());
+  const int budget = std::min(options_.max_cnt - total, static_cast<int>(kCap - right_.size()));
+  if (budget <= 0) return;
+  // Cover the right image where left features are (3D: their match; 2D-left: where the match
+  // was sought) and where 2D-right tracks already are.
+  detector_->clear_mask();
+  const float r = options_.detector.min_distance_px;
+  for (const LeftTrack& t : left_) {
+    if (t.stereo) {
+      detector_->block_disk(t.uv_right, r);
+    } else if (std::isfinite(t.right_guess.x())) {
+      detector_->block_disk(t.right_guess, r);
+    }
+  }
+  for (const RightTrack& t : right_) detector_->block_disk(t.uv, r);
+  const int found = detector_->detect(pyr_[cur_][1]->level(0), budget, options_.detector, new_px_);
+  for (int i = 0; i < found; ++i) {
+    RightTrack t;
+    if (!cam_[1].unproject(new_px_[i], &t.bearing)) continue;
+    t.id = next_id_++;
+    t.length = 0;
+    t.uv = new_px_[i];
+    right_.push_back(t);
+    ++st->new_right;
+  }
+}
+
+void Frontend::write_output(const StereoFrame& frame, FrameFeatures* out) const {
+  out->t_ns = frame.t_ns;
+  out->seq = frame.seq;
+  for (const LeftTrack& t : left_) {
+    FeatureObservation o;
+    o.id = t.id;
+    o.track_length = t.length;
+    o.cls = t.stereo ? FeatureClass::k3D : FeatureClass::k2DLeft;
+    o.uv_left_px = t.uv;
+    o.bearing_left = t.bearing;
+    o.xy_left = t.bearing.head<2>() / t.bearing.z();
+    if (t.stereo) {
+      o.uv_right_px = t.uv_right;
+      o.bearing_right = t.bearing_right;
+      o.xy_right = t.bearing_right.head<2>() / t.bearing_right.z();
+      ++out->n_3d;
+    } else {
+      o.uv_right_px = kNan2;
+      o.bearing_right = kNan3;
+      o.xy_right = kNan2;
+      ++out->n_2d_left;
+    }
+    out->features.push_back(o);
+  }
+  for (const RightTrack& t : right_) {
+    FeatureObservation o;
+    o.id = t.id;
+    o.track_length = t.length;
+    o.cls = FeatureClass::k2DRight;
+    o.uv_left_px = kNan2;
+    o.bearing_left = kNan3;
+    o.xy_left = kNan2;
+    o.uv_right_px = t.uv;
+    o.bearing_right = t.bearing;
+    o.xy_right = t.bearing.head<2>() / t.bearing.z();
+    ++out->n_2d_right;
+    out->features.push_back(o);
+  }
+}
+
+Status Frontend::process(const StereoFrame& frame, const Eigen::Quaterniond* q_c0prev_c0curr, FrameFeatures* out) {
+  out->clear();
+  if (!frame.left.valid() || frame.left.width != cam_[0].width() || frame.left.height != cam_[0].height()) {
+    return Status::kInvalidInput;
+  }
+  const bool right_valid = frame.right.valid();
+  if (right_valid && (frame.right.width != cam_[1].width() || frame.right.height != cam_[1].height())) {
+    return Status::kInvalidInput;
+  }
+  // Reseeding per frame from the frame index keeps results independent of earlier frames' draws.
+  rng_.state = (options_.ransac.seed ^ static_cast<std::uint32_t>(frame.seq * 2654435761u)) | 1u;
+
+  pyr_[cur_][0]->build(frame.left);
+  if (right_valid) pyr_[cur_][1]->build(frame.right);
+  FrontendFrameStats& st = out->stats;
+
+  if (has_prev_) {
+    Eigen::Matrix3f R_curr_prev;
+    const Eigen::Matrix3f* R = nullptr;
+    if (q_c0prev_c0curr != nullptr) {
+      R_curr_prev = q_c0prev_c0curr->toRotationMatrix().cast<float>().transpose();
+      R = &R_curr_prev;
+    }
+    track_left(R, &st);
+    if (right_valid && prev_right_valid_) {
+      track_right(R, &st);
+    } else {
+      right_.clear();
+    }
+  } else {
+    left_.clear();
+    right_.clear();
+  }
+  thin_crowded(&st);
+  detect_left(&st);
+  if (right_valid) {
+    match_stereo(&st);
+    if (options_.detect_right) detect_right(&st);
+  } else {
+    for (LeftTrack& t : left_) t.stereo = false;
+  }
+  for (LeftTrack& t : left_) ++t.length;
+  for (RightTrack& t : right_) ++t.length;
+  write_output(frame, out);
+
+  prev_right_valid_ = right_valid;
+  has_prev_ = true;
+  cur_ = 1 - cur_;
+  return Status::kOk;
+}
+
+}  // namespace ums

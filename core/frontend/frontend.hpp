@@ -1,0 +1,141 @@
+#pragma once
+// The visual front end (paper Sec. III-A.1): per stereo frame it
+//  1. builds 4-level pyramids for both images into buffers allocated at construction;
+//  2. tracks left features from the previous left image (3D features on levels 0-1, retried on
+//     all 4 levels when that fails; 2D features on 4 levels) and 2D-right features in the right
+//     image, starting from positions predicted by the IMU rotation when a hint is given, each
+//     confirmed by a forward-backward check;
+//  3. rejects temporal outliers per camera by RANSAC on the epipolar constraint;
+//  4. thins crowded tracks (longest tracks win) and detects new sub-pixel Shi-Tomasi corners in
+//     the left image up to the fixed total max_cnt;
+//  5. matches every left feature into the right image (left->right KLT, right->left
+//     confirmation, calibrated epipolar check: the pair need not be rectified) -> 3D or 2D-left;
+//  6. detects 2D-right corners where no left feature covers the right image, with what is left
+//     of max_cnt. In rich texture the left image fills the budget and most features are 3D; in
+//     poor texture fewer left corners and stereo matches survive and the 2D share rises.
+// Nothing is allocated after construction.
+
+#include <cstdint>
+#include <memory>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "core/camera/camera.hpp"
+#include "core/common/calibration.hpp"
+#include "core/common/capacity.hpp"
+#include "core/common/fixed_vector.hpp"
+#include "core/common/status.hpp"
+#include "core/common/stereo_frame.hpp"
+#include "core/frontend/corner_detector.hpp"
+#include "core/frontend/epipolar_ransac.hpp"
+#include "core/frontend/frame_features.hpp"
+#include "core/frontend/image_pyramid.hpp"
+#include "core/frontend/klt_tracker.hpp"
+
+namespace ums {
+
+struct FrontendOptions {
+  int max_cnt = 200;                   // features, fixed total of 3D + 2D-left + 2D-right
+  int levels_2d = 4;                   // pyramid levels for 2D features (paper: four)
+  int levels_3d = 2;                   // pyramid levels for 3D features (paper: two, retry on levels_2d)
+  int levels_stereo = 4;               // pyramid levels for the left->right match
+  float fb_max_px = 0.5f;              // px, forward-backward disagreement allowed (temporal)
+  float stereo_fb_max_px = 1.0f;       // px, right->left confirmation must land this close
+  float stereo_epipolar_max_px = 1.5f; // px in cam1, distance of a 3D match to its epipolar line
+  bool detect_right = true;            // add 2D-right features in uncovered right-image regions
+  bool use_ransac = true;              // temporal epipolar RANSAC per camera
+  KltOptions klt;
+  DetectorOptions detector;
+  RansacOptions ransac;
+
+  void validate() const;  // throws std::invalid_argument naming the field and value
+};
+
+class Frontend {
+ public:
+  // Start-up: validates the options (std::invalid_argument) and the calibration (image sizes
+  // within capacity, std::runtime_error), allocates pyramids, detector buffers and tracks.
+  Frontend(const FrontendOptions& options, const RigCalibration& calibration);
+  ~Frontend();
+  Frontend(const Frontend&) = delete;
+  Frontend& operator=(const Frontend&) = delete;
+
+  // Processes one stereo frame. q_c0prev_c0curr (optional) is the rotation of cam0 at this
+  // frame relative to cam0 at the previous frame (maps vectors from the current cam0 frame into
+  // the previous one; Eigen stores x, y, z, w), e.g. from integrated gyro rates; it only moves
+  // the KLT starting positions. A frame without a valid right image yields only 2D-left features
+  // (2D-right tracks are dropped). Returns kInvalidInput when the left image is missing or a
+  // size differs from the calibration (the tracker state is then unchanged). Allocates nothing.
+  Status process(const StereoFrame& frame, const Eigen::Quaterniond* q_c0prev_c0curr, FrameFeatures* out);
+
+  // Forgets every track (e.g. after a long gap); ids keep increasing.
+  void reset();
+
+  const FrontendOptions& options() const { return options_; }
+  const Camera& camera(int i) const { return cam_[i]; }
+  const Eigen::Matrix3f& R_c1_c0() const { return R_c1_c0_; }
+  const Eigen::Vector3f& t_c1_c0() const { return t_c1_c0_; }  // m
+
+  // Distance (px in cam1) of a stereo match to the epipolar line of its left bearing.
+  float stereo_epipolar_distance_px(const Eigen::Vector3f& bearing_left, const Eigen::Vector3f& bearing_right) const;
+
+ private:
+  struct LeftTrack {
+    std::uint32_t id = 0;
+    std::uint32_t length = 0;
+    bool stereo = false;                 // class at the previous frame (3D)
+    Eigen::Vector2f uv = Eigen::Vector2f::Zero();        // cam0 px
+    Eigen::Vector3f bearing = Eigen::Vector3f::UnitZ();  // cam0
+    Eigen::Vector2f xy = Eigen::Vector2f::Zero();        // cam0 normalized
+    Eigen::Vector2f uv_right = Eigen::Vector2f::Zero();  // cam1 px (valid when stereo)
+    Eigen::Vector3f bearing_right = Eigen::Vector3f::UnitZ();
+    Eigen::Vector2f xy_right = Eigen::Vector2f::Zero();
+    Eigen::Vector2f right_guess = Eigen::Vector2f::Zero();  // where the right match was sought
+  };
+  struct RightTrack {
+    std::uint32_t id = 0;
+    std::uint32_t length = 0;
+    Eigen::Vector2f uv = Eigen::Vector2f::Zero();        // cam1 px
+    Eigen::Vector3f bearing = Eigen::Vector3f::UnitZ();  // cam1
+    Eigen::Vector2f xy = Eigen::Vector2f::Zero();
+  };
+  static constexpr std::size_t kCap = capacity::kMaxFeaturesPerCamera;
+
+  void track_left(const Eigen::Matrix3f* R_curr_prev, FrontendFrameStats* st);
+  void track_right(const Eigen::Matrix3f* R_curr_prev, FrontendFrameStats* st);
+  void thin_crowded(FrontendFrameStats* st);
+  void detect_left(FrontendFrameStats* st);
+  void match_stereo(FrontendFrameStats* st);
+  void detect_right(FrontendFrameStats* st);
+  void write_output(const StereoFrame& frame, FrameFeatures* out) const;
+  Eigen::Vector2f predict(const Camera& cam, const Eigen::Matrix3f& R_curr_prev, const Eigen::Vector2f& uv) const;
+
+  FrontendOptions options_;
+  Camera cam_[2];
+  Eigen::Matrix3f R_c1_c0_ = Eigen::Matrix3f::Identity();
+  Eigen::Vector3f t_c1_c0_ = Eigen::Vector3f::Zero();
+  Eigen::Matrix3f E_c1_c0_ = Eigen::Matrix3f::Zero();  // stereo essential: x1^T E x0 = 0
+
+  // pyr_[k][cam]: k = cur_ is this frame, 1 - cur_ the previous one (swapped, never copied).
+  std::unique_ptr<ImagePyramid> pyr_[2][2];
+  int cur_ = 0;
+  bool has_prev_ = false;
+  bool prev_right_valid_ = false;
+  std::unique_ptr<CornerDetector> detector_;
+
+  FixedVector<LeftTrack, kCap> left_;
+  FixedVector<RightTrack, kCap> right_;
+  std::uint32_t next_id_ = 0;
+  Eigen::Vector2f stereo_offset_px_ = Eigen::Vector2f::Zero();  // mean right - infinity transfer of 3D matches
+  Xorshift32 rng_;
+
+  // Scratch, sized once (members so the per-frame path never allocates).
+  Eigen::Vector3f b_prev_[kCap];
+  Eigen::Vector3f b_curr_[kCap];
+  std::uint8_t inlier_[kCap];
+  std::uint16_t order_[kCap];
+  Eigen::Vector2f new_px_[kCap];
+};
+
+}  // namespace ums

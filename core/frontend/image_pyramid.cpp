@@ -1,0 +1,88 @@
+#include "core/frontend/image_pyramid.hpp"
+
+#include <algorithm>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+
+namespace ums {
+
+ImagePyramid::ImagePyramid(int width, int height, int levels) : levels_(levels) {
+  if (width <= 0 || height <= 0 || width > capacity::kMaxImageWidth || height > capacity::kMaxImageHeight) {
+    throw std::runtime_error("ImagePyramid: image size " + std::to_string(width) + "x" + std::to_string(height) +
+                             " outside 1.." + std::to_string(capacity::kMaxImageWidth) + "x" +
+                             std::to_string(capacity::kMaxImageHeight));
+  }
+  if (levels < 1 || levels > capacity::kMaxPyramidLevels) {
+    throw std::runtime_error("ImagePyramid: levels " + std::to_string(levels) + " outside 1.." +
+                             std::to_string(capacity::kMaxPyramidLevels));
+  }
+  std::size_t total = 0;
+  int w = width, h = height;
+  for (int l = 0; l < levels; ++l) {
+    total += static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
+    w = std::max(1, (w + 1) / 2);
+    h = std::max(1, (h + 1) / 2);
+  }
+  storage_.assign(total, 0);
+  row_tmp_.assign(static_cast<std::size_t>(width), 0);
+  std::size_t offset = 0;
+  w = width;
+  h = height;
+  for (int l = 0; l < levels; ++l) {
+    ImageView& v = views_[l];
+    v.data = storage_.data() + offset;
+    v.width = w;
+    v.height = h;
+    v.stride = w;
+    offset += static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
+    w = std::max(1, (w + 1) / 2);
+    h = std::max(1, (h + 1) / 2);
+  }
+}
+
+namespace {
+
+// dst(x, y) = blur(src)(2x, 2y) with the 5-tap binomial kernel and replicated borders. The
+// vertical pass runs first into row_tmp (sums up to 16*255 fit uint16), then the horizontal one.
+void downsample(const ImageView& src, const ImageView& dst, std::uint16_t* row_tmp) {
+  static constexpr int kW[5] = {1, 4, 6, 4, 1};
+  const int sw = src.width, sh = src.height;
+  auto* out_base = const_cast<std::uint8_t*>(dst.data);  // the pyramid owns these bytes
+  for (int y = 0; y < dst.height; ++y) {
+    const int sy = 2 * y;
+    const std::uint8_t* rows[5];
+    for (int k = 0; k < 5; ++k) rows[k] = src.row(std::clamp(sy + k - 2, 0, sh - 1));
+    for (int x = 0; x < sw; ++x) {
+      row_tmp[x] = static_cast<std::uint16_t>(rows[0][x] + 4 * rows[1][x] + 6 * rows[2][x] + 4 * rows[3][x] + rows[4][x]);
+    }
+    std::uint8_t* out = out_base + static_cast<long>(y) * dst.stride;
+    for (int x = 0; x < dst.width; ++x) {
+      const int sx = 2 * x;
+      int acc = 0;
+      if (sx >= 2 && sx + 2 < sw) {
+        acc = row_tmp[sx - 2] + 4 * row_tmp[sx - 1] + 6 * row_tmp[sx] + 4 * row_tmp[sx + 1] + row_tmp[sx + 2];
+      } else {
+        for (int k = 0; k < 5; ++k) acc += kW[k] * row_tmp[std::clamp(sx + k - 2, 0, sw - 1)];
+      }
+      out[x] = static_cast<std::uint8_t>((acc + 128) >> 8);
+    }
+  }
+}
+
+}  // namespace
+
+Status ImagePyramid::build(const ImageView& image) {
+  const ImageView& l0 = views_[0];
+  if (!image.valid() || image.width != l0.width || image.height != l0.height) return Status::kInvalidInput;
+  auto* dst = const_cast<std::uint8_t*>(l0.data);
+  if (image.stride == l0.width) {
+    std::memcpy(dst, image.data, static_cast<std::size_t>(l0.width) * static_cast<std::size_t>(l0.height));
+  } else {
+    for (int y = 0; y < l0.height; ++y) std::memcpy(dst + static_cast<long>(y) * l0.stride, image.row(y), static_cast<std::size_t>(l0.width));
+  }
+  for (int l = 1; l < levels_; ++l) downsample(views_[l - 1], views_[l], row_tmp_.data());
+  return Status::kOk;
+}
+
+}  // namespace ums

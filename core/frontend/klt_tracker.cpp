@@ -1,0 +1,170 @@
+#include "core/frontend/klt_tracker.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace ums {
+
+void KltOptions::validate() const {
+  if (window_px < 5 || window_px > kMaxWindowPx || window_px % 2 == 0) {
+    throw std::invalid_argument("KltOptions.window_px must be odd in 5.." + std::to_string(kMaxWindowPx) +
+                                ", got " + std::to_string(window_px));
+  }
+  if (max_iterations < 1) throw std::invalid_argument("KltOptions.max_iterations must be >= 1, got " + std::to_string(max_iterations));
+  if (!(epsilon_px > 0.0f)) throw std::invalid_argument("KltOptions.epsilon_px must be > 0, got " + std::to_string(epsilon_px));
+  if (!(min_eigen >= 0.0f)) throw std::invalid_argument("KltOptions.min_eigen must be >= 0, got " + std::to_string(min_eigen));
+  if (!(max_mean_abs_error > 0.0f)) {
+    throw std::invalid_argument("KltOptions.max_mean_abs_error must be > 0, got " + std::to_string(max_mean_abs_error));
+  }
+}
+
+void sample_patch_bilinear(const ImageView& image, float x, float y, int n, float* out) {
+  const float fx0 = std::floor(x), fy0 = std::floor(y);
+  const int x0 = static_cast<int>(fx0), y0 = static_cast<int>(fy0);
+  const float ax = x - fx0, ay = y - fy0;
+  // One fraction for the whole patch: four weights, reused for every sample.
+  const float w00 = (1.0f - ax) * (1.0f - ay), w01 = ax * (1.0f - ay), w10 = (1.0f - ax) * ay, w11 = ax * ay;
+  if (x0 >= 0 && y0 >= 0 && x0 + n < image.width && y0 + n < image.height) {
+    for (int j = 0; j < n; ++j) {
+      const std::uint8_t* r0 = image.row(y0 + j) + x0;
+      const std::uint8_t* r1 = r0 + image.stride;
+      float* o = out + j * n;
+      for (int i = 0; i < n; ++i) {
+        o[i] = w00 * static_cast<float>(r0[i]) + w01 * static_cast<float>(r0[i + 1]) + w10 * static_cast<float>(r1[i]) +
+               w11 * static_cast<float>(r1[i + 1]);
+      }
+    }
+    return;
+  }
+  const int wmax = image.width - 1, hmax = image.height - 1;
+  for (int j = 0; j < n; ++j) {
+    const std::uint8_t* r0 = image.row(std::clamp(y0 + j, 0, hmax));
+    const std::uint8_t* r1 = image.row(std::clamp(y0 + j + 1, 0, hmax));
+    float* o = out + j * n;
+    for (int i = 0; i < n; ++i) {
+      const int xa = std::clamp(x0 + i, 0, wmax), xb = std::clamp(x0 + i + 1, 0, wmax);
+      o[i] = w00 * static_cast<float>(r0[xa]) + w01 * static_cast<float>(r0[xb]) + w10 * static_cast<float>(r1[xa]) +
+             w11 * static_cast<float>(r1[xb]);
+    }
+  }
+}
+
+Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels, const KltOptions& options,
+                 const Eigen::Vector2f& p_prev, Eigen::Vector2f* p_curr) {
+  constexpr int kMaxN = KltOptions::kMaxWindowPx;
+  constexpr int kMaxT = kMaxN + 2;
+  float tmpl_ext[kMaxT * kMaxT];
+  float tmpl[kMaxN * kMaxN];
+  float gx[kMaxN * kMaxN];
+  float gy[kMaxN * kMaxN];
+  float warped[kMaxN * kMaxN];
+
+  const int n = options.window_px;
+  const int half = n / 2;
+  const int ne = n + 2;
+  const float inv_area = 1.0f / static_cast<float>(n * n);
+  levels = std::min({levels, prev.levels(), curr.levels()});
+  if (levels < 1 || !std::isfinite(p_curr->x()) || !std::isfinite(p_curr->y())) return Status::kNotConverged;
+
+  const float top_scale = 1.0f / static_cast<float>(1 << (levels - 1));
+  // Displacement (guess + flow) carried from level to level, in the current level's pixels.
+  Eigen::Vector2f g = (*p_curr - p_prev) * top_scale;
+  float tmpl_mean = 0.0f;
+  for (int level = levels - 1; level >= 0; --level) {
+    const float scale = 1.0f / static_cast<float>(1 << level);
+    const ImageView& I = prev.level(level);
+    const ImageView& J = curr.level(level);
+    const Eigen::Vector2f p = p_prev * scale;
+
+    sample_patch_bilinear(I, p.x() - static_cast<float>(half + 1), p.y() - static_cast<float>(half + 1), ne, tmpl_ext);
+    float gxx = 0.0f, gxy = 0.0f, gyy = 0.0f, sum_t = 0.0f;
+    for (int j = 0; j < n; ++j) {
+      const float* c = tmpl_ext + (j + 1) * ne + 1;
+      for (int i = 0; i < n; ++i) {
+        const int k = j * n + i;
+        const float dx = 0.5f * (c[i + 1] - c[i - 1]);
+        const float dy = 0.5f * (c[i + ne] - c[i - ne]);
+        tmpl[k] = c[i];
+        sum_t += c[i];
+        gx[k] = dx;
+        gy[k] = dy;
+        gxx += dx * dx;
+        gxy += dx * dy;
+        gyy += dy * dy;
+      }
+    }
+    tmpl_mean = sum_t * inv_area;
+    // Smallest eigenvalue of the mean structure tensor: an untextured window cannot be tracked.
+    const float a = gxx * inv_area, b = gxy * inv_area, c2 = gyy * inv_area;
+    const float min_eig = 0.5f * ((a + c2) - std::sqrt((a - c2) * (a - c2) + 4.0f * b * b));
+    // A coarse level that cannot be used (blurred flat, or mostly outside a small image) is
+    // skipped: the finer levels still refine the carried displacement. Level 0 must succeed.
+    const bool usable = min_eig >= options.min_eigen && min_eig > 0.0f;
+    if (!usable) {
+      if (level == 0) return Status::kNotConverged;
+      g *= 2.0f;
+      continue;
+    }
+    const float det = gxx * gyy - gxy * gxy;
+    const float inv_det = 1.0f / det;
+
+    Eigen::Vector2f nu(0.0f, 0.0f);
+    bool left_image = false;
+    for (int it = 0; it < options.max_iterations; ++it) {
+      const float qx = p.x() + g.x() + nu.x(), qy = p.y() + g.y() + nu.y();
+      if (!(qx > -static_cast<float>(half) && qy > -static_cast<float>(half) &&
+            qx < static_cast<float>(J.width + half) && qy < static_cast<float>(J.height + half))) {
+        left_image = true;  // the window left the image entirely
+        break;
+      }
+      sample_patch_bilinear(J, qx - static_cast<float>(half), qy - static_cast<float>(half), n, warped);
+      // Intensity offset between the windows (exposure, or the two cameras' gains) removed:
+      // e = (T - mean T) - (J - mean J).
+      float sum_j = 0.0f;
+      for (int k = 0; k < n * n; ++k) sum_j += warped[k];
+      const float bias = tmpl_mean - sum_j * inv_area;
+      float bx = 0.0f, by = 0.0f;
+      for (int k = 0; k < n * n; ++k) {
+        const float e = tmpl[k] - warped[k] - bias;
+        bx += e * gx[k];
+        by += e * gy[k];
+      }
+      const float ex = inv_det * (gyy * bx - gxy * by);
+      const float ey = inv_det * (gxx * by - gxy * bx);
+      nu.x() += ex;
+      nu.y() += ey;
+      if (ex * ex + ey * ey < options.epsilon_px * options.epsilon_px) break;
+    }
+    // A level whose flow runs farther than the window reaches has locked onto something else.
+    const bool ran_away = !(nu.squaredNorm() <= static_cast<float>(half * half));
+    if (left_image || ran_away) {
+      if (level == 0) return Status::kNotConverged;
+      nu.setZero();
+    }
+    if (level > 0) {
+      g = 2.0f * (g + nu);
+    } else {
+      g += nu;
+    }
+  }
+  const Eigen::Vector2f result = p_prev + g;
+  const ImageView& J0 = curr.level(0);
+  if (!(result.x() >= 0.0f && result.y() >= 0.0f && result.x() <= static_cast<float>(J0.width - 1) &&
+        result.y() <= static_cast<float>(J0.height - 1))) {
+    return Status::kNotConverged;
+  }
+  // Photometric check at level 0 (the template was sampled at level 0 in the last pass).
+  sample_patch_bilinear(J0, result.x() - static_cast<float>(half), result.y() - static_cast<float>(half), n, warped);
+  float sum_j = 0.0f;
+  for (int k = 0; k < n * n; ++k) sum_j += warped[k];
+  const float bias = tmpl_mean - sum_j * inv_area;
+  float sum_abs = 0.0f;
+  for (int k = 0; k < n * n; ++k) sum_abs += std::abs(tmpl[k] - warped[k] - bias);
+  if (!(sum_abs * inv_area <= options.max_mean_abs_error)) return Status::kNotConverged;
+  *p_curr = result;
+  return Status::kOk;
+}
+
+}  // namespace ums

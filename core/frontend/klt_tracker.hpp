@@ -1,0 +1,41 @@
+#pragma once
+// Pyramidal Lucas-Kanade point tracking (Bouguet's coarse-to-fine scheme) on our own pyramids,
+// with bilinear interpolation and float math. The residual is taken between mean-removed windows
+// (an intensity offset between frames or between the left and right cameras does not bias it). One call tracks one point; the caller runs the
+// forward-backward check by tracking the result back. Template gradients are central differences
+// of a bilinearly sampled patch one pixel larger than the window, so nothing is precomputed per
+// frame and no memory is needed beyond a few stack patches.
+
+#include <Eigen/Core>
+
+#include "core/common/image_view.hpp"
+#include "core/common/status.hpp"
+#include "core/frontend/image_pyramid.hpp"
+
+namespace ums {
+
+struct KltOptions {
+  int window_px = 21;             // px, odd side of the square window (VINS-Fusion uses 21)
+  int max_iterations = 30;        // per pyramid level
+  float epsilon_px = 0.01f;       // px, stop when the update is smaller
+  float min_eigen = 1.0f;         // (grey/px)^2, min eigenvalue of the mean structure tensor
+  float max_mean_abs_error = 25.0f;  // grey levels, mean |I - J - offset| over the window after tracking
+
+  static constexpr int kMaxWindowPx = 31;  // px, bound of the stack patches
+  // Throws std::invalid_argument naming the field and its value.
+  void validate() const;
+};
+
+// Tracks p_prev (level-0 px in prev) into curr using the top `levels` levels of both pyramids
+// (levels <= both pyramids' level count). *p_curr holds the initial guess on entry (level-0 px;
+// pass p_prev when there is none) and the tracked position on success. Returns kOk, or
+// kNotConverged when the window is untextured, the point left the image or the final residual
+// is too large (then *p_curr is unspecified).
+Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels, const KltOptions& options,
+                 const Eigen::Vector2f& p_prev, Eigen::Vector2f* p_curr);
+
+// Samples an n x n patch whose top-left sample sits at (x, y) (sub-pixel, level px) with bilinear
+// interpolation; samples outside the image use the nearest border pixel. out has n*n floats.
+void sample_patch_bilinear(const ImageView& image, float x, float y, int n, float* out);
+
+}  // namespace ums
