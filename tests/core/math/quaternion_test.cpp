@@ -1,8 +1,7 @@
 #include "core/math/quaternion.hpp"
 
-#include <cmath>
-
 #include <catch2/catch.hpp>
+#include <cmath>
 
 #include "core/math/so3.hpp"
 
@@ -41,9 +40,10 @@ TEST_CASE("small-angle quaternion agrees with exp to second order", "[math][quat
 }
 
 TEST_CASE("remove_yaw keeps roll and pitch and zeroes yaw", "[math][quat]") {
-  const Eigen::Matrix3d R = (Eigen::AngleAxisd(1.2, Vector3d::UnitZ()) *
-                             Eigen::AngleAxisd(0.3, Vector3d::UnitY()) *
-                             Eigen::AngleAxisd(-0.2, Vector3d::UnitX())).toRotationMatrix();
+  const Eigen::Matrix3d R =
+      (Eigen::AngleAxisd(1.2, Vector3d::UnitZ()) * Eigen::AngleAxisd(0.3, Vector3d::UnitY()) *
+       Eigen::AngleAxisd(-0.2, Vector3d::UnitX()))
+          .toRotationMatrix();
   CHECK(std::abs(quat::yaw(R) - 1.2) < 1e-14);
   const Eigen::Matrix3d R0 = quat::remove_yaw(R);
   CHECK(std::abs(quat::yaw(R0)) < 1e-14);

@@ -1,9 +1,8 @@
 #include "core/math/so3.hpp"
 
+#include <catch2/catch.hpp>
 #include <cmath>
 #include <random>
-
-#include <catch2/catch.hpp>
 
 namespace {
 
@@ -43,8 +42,8 @@ TEST_CASE("so3 hat and vee are inverse and hat is the cross product", "[math][so
 TEST_CASE("so3 exp matches Eigen AngleAxis and exp_quat at all angles", "[math][so3]") {
   for (const Vector3d& phi : test_angles()) {
     const double t = phi.norm();
-    const Matrix3d R_ref = t > 0.0 ? Eigen::AngleAxisd(t, phi / t).toRotationMatrix()
-                                   : Matrix3d::Identity();
+    const Matrix3d R_ref =
+        t > 0.0 ? Eigen::AngleAxisd(t, phi / t).toRotationMatrix() : Matrix3d::Identity();
     const Matrix3d R = so3::exp(phi);
     CHECK((R - R_ref).norm() < 1e-14);
     CHECK((R * R.transpose() - Matrix3d::Identity()).norm() < 1e-14);
@@ -88,9 +87,11 @@ TEST_CASE("so3 right and left Jacobians match central differences", "[math][so3]
     for (int k = 0; k < 3; ++k) {
       const Vector3d e = h * Vector3d::Unit(k);
       Jr_num.col(k) = (so3::log(R.transpose() * so3::exp(phi + e)) -
-                       so3::log(R.transpose() * so3::exp(phi - e))) / (2.0 * h);
+                       so3::log(R.transpose() * so3::exp(phi - e))) /
+                      (2.0 * h);
       Jl_num.col(k) = (so3::log(so3::exp(phi + e) * R.transpose()) -
-                       so3::log(so3::exp(phi - e) * R.transpose())) / (2.0 * h);
+                       so3::log(so3::exp(phi - e) * R.transpose())) /
+                      (2.0 * h);
     }
     INFO("angle " << phi.norm());
     CHECK((so3::right_jacobian(phi) - Jr_num).norm() < 1e-8);

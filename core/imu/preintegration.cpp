@@ -1,0 +1,191 @@
+#include "core/imu/preintegration.hpp"
+
+#include <Eigen/Cholesky>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include "core/math/so3.hpp"
+
+namespace ums {
+namespace {
+
+bool finite(const ImuSample& s) { return s.gyro_rad_s.allFinite() && s.accel_m_s2.allFinite(); }
+
+}  // namespace
+
+void PreintegrationOptions::validate() const {
+  noise.validate();
+  if (!(repropagate_accel_bias_m_s2 > 0.0) || !std::isfinite(repropagate_accel_bias_m_s2)) {
+    throw std::invalid_argument(
+        "PreintegrationOptions.repropagate_accel_bias_m_s2 must be > 0, got " +
+        std::to_string(repropagate_accel_bias_m_s2));
+  }
+  if (!(repropagate_gyro_bias_rad_s > 0.0) || !std::isfinite(repropagate_gyro_bias_rad_s)) {
+    throw std::invalid_argument(
+        "PreintegrationOptions.repropagate_gyro_bias_rad_s must be > 0, got " +
+        std::to_string(repropagate_gyro_bias_rad_s));
+  }
+  if (max_samples < 2 || max_samples > capacity::kMaxImuSamplesBetweenFrames) {
+    throw std::invalid_argument("PreintegrationOptions.max_samples must be in [2, " +
+                                std::to_string(capacity::kMaxImuSamplesBetweenFrames) +
+                                "] (capacity::kMaxImuSamplesBetweenFrames), got " +
+                                std::to_string(max_samples));
+  }
+}
+
+ImuSample interpolate_imu(const ImuSample& a, const ImuSample& b, std::int64_t t_ns) {
+  ImuSample s;
+  s.t_ns = t_ns;
+  const double span = static_cast<double>(b.t_ns - a.t_ns);
+  const double w = span > 0.0 ? static_cast<double>(t_ns - a.t_ns) / span : 0.0;
+  s.gyro_rad_s = (1.0 - w) * a.gyro_rad_s + w * b.gyro_rad_s;
+  s.accel_m_s2 = (1.0 - w) * a.accel_m_s2 + w * b.accel_m_s2;
+  return s;
+}
+
+Preintegration::Preintegration(const PreintegrationOptions& options) : options_(options) {}
+
+void Preintegration::clear_deltas() {
+  alpha_.setZero();
+  beta_.setZero();
+  gamma_.setIdentity();
+  covariance_.setZero();
+  bias_jacobian_.setZero();
+  // The error state at i depends on the bias at i through the bias rows only.
+  bias_jacobian_.block<3, 3>(kBa, 0).setIdentity();
+  bias_jacobian_.block<3, 3>(kBg, 3).setIdentity();
+}
+
+Status Preintegration::reset(const ImuSample& first, const Eigen::Vector3d& ba,
+                             const Eigen::Vector3d& bg) {
+  if (!finite(first) || !ba.allFinite() || !bg.allFinite()) return Status::kInvalidInput;
+  samples_.clear();
+  samples_.push_back(first);
+  ba_ = ba;
+  bg_ = bg;
+  clear_deltas();
+  return Status::kOk;
+}
+
+Status Preintegration::add(const ImuSample& sample) {
+  if (samples_.empty()) return Status::kInvalidInput;  // reset() first
+  if (!finite(sample) || sample.t_ns <= samples_.back().t_ns) return Status::kInvalidInput;
+  if (samples_.size() >= options_.max_samples) return Status::kFull;
+  const ImuSample prev = samples_.back();
+  if (samples_.push_back(sample) != Status::kOk) return Status::kFull;
+  step(prev, sample);
+  return Status::kOk;
+}
+
+void Preintegration::step(const ImuSample& s0, const ImuSample& s1) {
+  using Eigen::Matrix3d;
+  using Eigen::Vector3d;
+  const double dt = 1e-9 * static_cast<double>(s1.t_ns - s0.t_ns);
+  const double dt2 = dt * dt;
+
+  // Nominal midpoint step.
+  const Vector3d a0 = s0.accel_m_s2 - ba_;
+  const Vector3d a1 = s1.accel_m_s2 - ba_;
+  const Vector3d w = 0.5 * (s0.gyro_rad_s + s1.gyro_rad_s) - bg_;
+  const Vector3d dphi = w * dt;
+  const Matrix3d R0 = gamma_.toRotationMatrix();
+  const Eigen::Quaterniond q1 = (gamma_ * so3::exp_quat(dphi)).normalized();
+  const Matrix3d R1 = q1.toRotationMatrix();
+  const Vector3d acc = 0.5 * (R0 * a0 + R1 * a1);
+  alpha_ += beta_ * dt + 0.5 * acc * dt2;
+  beta_ += acc * dt;
+  gamma_ = q1;
+
+  // Error-state transition with right-perturbed rotation (gamma <- gamma Exp(dtheta)):
+  //   dtheta1 = Exp(dphi)^T dtheta0 - Jr(dphi) dt (dbg + n_g),
+  //   dacc    = -1/2 (R0 [a0]x dtheta0 + R1 [a1]x dtheta1) - 1/2 (R0 + R1) dba.
+  const Matrix3d F_tt = so3::exp(dphi).transpose();
+  const Matrix3d G = -so3::right_jacobian(dphi) * dt;  // d dtheta1 / d(dbg or gyro noise)
+  const Matrix3d A0 = -R0 * so3::hat(a0);
+  const Matrix3d A1 = -R1 * so3::hat(a1);
+  const Matrix3d dacc_dth = 0.5 * (A0 + A1 * F_tt);
+  const Matrix3d dacc_dba = -0.5 * (R0 + R1);
+  const Matrix3d dacc_dbg = 0.5 * A1 * G;
+
+  Matrix15 F = Matrix15::Identity();
+  F.block<3, 3>(kP, kTheta) = 0.5 * dt2 * dacc_dth;
+  F.block<3, 3>(kP, kV) = Matrix3d::Identity() * dt;
+  F.block<3, 3>(kP, kBa) = 0.5 * dt2 * dacc_dba;
+  F.block<3, 3>(kP, kBg) = 0.5 * dt2 * dacc_dbg;
+  F.block<3, 3>(kTheta, kTheta) = F_tt;
+  F.block<3, 3>(kTheta, kBg) = G;
+  F.block<3, 3>(kV, kTheta) = dt * dacc_dth;
+  F.block<3, 3>(kV, kBa) = dt * dacc_dba;
+  F.block<3, 3>(kV, kBg) = dt * dacc_dbg;
+
+  // Noise: the midpoint uses the noise of both end samples, which every step shares with its
+  // neighbour; treating them as independent halves the variance, so each end sample gets
+  // 2 sigma^2/dt and the accumulated rotation variance is the continuous sigma_g^2 * T.
+  const ImuNoise& n = options_.noise;
+  const double var_a = 2.0 * n.accel_noise_density * n.accel_noise_density / dt;
+  const double var_g_mid = n.gyro_noise_density * n.gyro_noise_density / dt;  // of (n_g0+n_g1)/2
+  Eigen::Matrix<double, 9, 9> B = Eigen::Matrix<double, 9, 9>::Zero();  // [n_a0, n_a1, n_gmid]
+  B.block<3, 3>(kP, 0) = 0.25 * dt2 * R0;
+  B.block<3, 3>(kP, 3) = 0.25 * dt2 * R1;
+  B.block<3, 3>(kP, 6) = 0.25 * dt2 * A1 * G;
+  B.block<3, 3>(kTheta, 6) = G;
+  B.block<3, 3>(kV, 0) = 0.5 * dt * R0;
+  B.block<3, 3>(kV, 3) = 0.5 * dt * R1;
+  B.block<3, 3>(kV, 6) = 0.5 * dt * A1 * G;
+  Eigen::Matrix<double, 9, 1> q;
+  q << var_a, var_a, var_a, var_a, var_a, var_a, var_g_mid, var_g_mid, var_g_mid;
+
+  covariance_ = (F * covariance_ * F.transpose()).eval();
+  covariance_.topLeftCorner<9, 9>().noalias() += B * q.asDiagonal() * B.transpose();
+  covariance_.block<3, 3>(kBa, kBa).diagonal().array() +=
+      n.accel_random_walk * n.accel_random_walk * dt;
+  covariance_.block<3, 3>(kBg, kBg).diagonal().array() +=
+      n.gyro_random_walk * n.gyro_random_walk * dt;
+  bias_jacobian_ = (F * bias_jacobian_).eval();
+}
+
+void Preintegration::repropagate(const Eigen::Vector3d& ba, const Eigen::Vector3d& bg) {
+  ba_ = ba;
+  bg_ = bg;
+  clear_deltas();
+  for (std::size_t k = 1; k < samples_.size(); ++k) step(samples_[k - 1], samples_[k]);
+  ++repropagations_;
+}
+
+bool Preintegration::needs_repropagation(const Eigen::Vector3d& ba,
+                                         const Eigen::Vector3d& bg) const {
+  return (ba - ba_).cwiseAbs().maxCoeff() > options_.repropagate_accel_bias_m_s2 ||
+         (bg - bg_).cwiseAbs().maxCoeff() > options_.repropagate_gyro_bias_rad_s;
+}
+
+bool Preintegration::repropagate_if_needed(const Eigen::Vector3d& ba, const Eigen::Vector3d& bg) {
+  if (!needs_repropagation(ba, bg)) return false;
+  repropagate(ba, bg);
+  return true;
+}
+
+void Preintegration::corrected(const Eigen::Vector3d& ba, const Eigen::Vector3d& bg,
+                               Eigen::Vector3d* alpha, Eigen::Vector3d* beta,
+                               Eigen::Quaterniond* gamma) const {
+  const Eigen::Vector3d dba = ba - ba_;
+  const Eigen::Vector3d dbg = bg - bg_;
+  if (alpha) *alpha = alpha_ + d_alpha_d_ba() * dba + d_alpha_d_bg() * dbg;
+  if (beta) *beta = beta_ + d_beta_d_ba() * dba + d_beta_d_bg() * dbg;
+  if (gamma) *gamma = (gamma_ * so3::exp_quat(d_gamma_d_bg() * dbg)).normalized();
+}
+
+Status Preintegration::sqrt_information(Matrix15* U) const {
+  // Symmetrise first: F P F^T accumulates rounding asymmetry.
+  const Matrix15 P = 0.5 * (covariance_ + covariance_.transpose());
+  Eigen::LLT<Matrix15> llt_p(P);
+  if (llt_p.info() != Eigen::Success) return Status::kSingular;
+  Matrix15 info = llt_p.solve(Matrix15::Identity());
+  info = 0.5 * (info + info.transpose()).eval();
+  Eigen::LLT<Matrix15> llt_i(info);
+  if (llt_i.info() != Eigen::Success) return Status::kSingular;
+  *U = llt_i.matrixU();
+  return U->allFinite() ? Status::kOk : Status::kSingular;
+}
+
+}  // namespace ums
