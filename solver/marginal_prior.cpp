@@ -1,0 +1,135 @@
+#include "solver/marginal_prior.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace ums::solver {
+
+SolverStatus MarginalPrior::set_from_information(const PriorBlock* blocks, int num_blocks,
+                                                 const Eigen::Ref<const Eigen::MatrixXd>& H,
+                                                 const Eigen::Ref<const Eigen::VectorXd>& b) {
+  clear();
+  if (num_blocks < 0) return SolverStatus::kInvalidInput;
+  if (num_blocks > capacity::kMaxReducedBlocks) return SolverStatus::kFull;
+  int dim = 0;
+  for (int i = 0; i < num_blocks; ++i) {
+    if (blocks[i].offset != dim ||
+        blocks[i].tangent_size != tangent_size(blocks[i].manifold, blocks[i].ambient_size))
+      return SolverStatus::kInvalidInput;
+    dim += blocks[i].tangent_size;
+  }
+  if (dim > capacity::kMaxReducedDim) return SolverStatus::kFull;
+  if (H.rows() != dim || H.cols() != dim || b.size() != dim) return SolverStatus::kInvalidInput;
+  for (int c = 0; c < dim; ++c) {
+    if (!std::isfinite(b[c])) return SolverStatus::kInvalidInput;
+    for (int r = 0; r <= c; ++r)
+      if (!std::isfinite(H(r, c))) return SolverStatus::kInvalidInput;
+  }
+
+  // Jacobi scaling makes the rank test unit-free (poses, velocities and biases differ by many
+  // orders of magnitude): Hs = D^-1/2 H D^-1/2 with D = diag(H).
+  DenseVector sqrt_d(dim);
+  for (int i = 0; i < dim; ++i) sqrt_d[i] = H(i, i) > 0.0 ? std::sqrt(H(i, i)) : 1.0;
+  H0_.resize(dim, dim);
+  MatrixMap W = H0_.m();  // workspace: the scaled matrix, then its pivoted factor
+  for (int j = 0; j < dim; ++j)
+    for (int i = 0; i <= j; ++i) {
+      W(i, j) = H(i, j) / (sqrt_d[i] * sqrt_d[j]);
+      W(j, i) = W(i, j);
+    }
+  // Pivoted outer-product Cholesky: P^T Hs P = U^T U, stopping at the numerical rank (a pivot
+  // below 1e-12 of the unit diagonal carries no information: gauge directions, unobserved blocks).
+  int perm[capacity::kMaxReducedDim];
+  for (int i = 0; i < dim; ++i) perm[i] = i;
+  DenseVector row(dim);
+  int rank = 0;
+  for (int k = 0; k < dim; ++k) {
+    int p = k;
+    for (int i = k + 1; i < dim; ++i)
+      if (W(i, i) > W(p, p)) p = i;
+    if (!(W(p, p) > 1e-12)) break;
+    if (p != k) {
+      W.row(k).swap(W.row(p));
+      W.col(k).swap(W.col(p));
+      std::swap(perm[k], perm[p]);
+    }
+    const double ukk = std::sqrt(W(k, k));
+    W(k, k) = ukk;
+    const int m = dim - k - 1;
+    for (int i = k + 1; i < dim; ++i) W(k, i) /= ukk;
+    row.head(m) = W.row(k).tail(m).transpose();
+    W.bottomRightCorner(m, m).noalias() -= row.head(m) * row.head(m).transpose();
+    rank = k + 1;
+  }
+  // J = U P^T D^1/2 (rows >= rank are zero); J^T r0 = b <=> U^T r0 = P^T D^-1/2 b.
+  J_.resize(dim, dim);
+  MatrixMap J = J_.m();
+  J.setZero();
+  r0_.resize(dim);
+  r0_.setZero();
+  for (int k = 0; k < rank; ++k) {
+    r0_[k] = b[perm[k]] / sqrt_d[perm[k]];
+    for (int i = 0; i < k; ++i) r0_[k] -= W(i, k) * r0_[i];
+    r0_[k] /= W(k, k);
+  }
+  for (int j = 0; j < dim; ++j) {
+    const int c = perm[j];
+    for (int i = 0; i <= j && i < rank; ++i) J(i, c) = W(i, j) * sqrt_d[c];
+  }
+  // H0 = J^T J, exactly the information the prior applies.
+  for (int j = 0; j < dim; ++j)
+    for (int i = 0; i <= j; ++i) {
+      W(i, j) = J.col(i).head(rank).dot(J.col(j).head(rank));
+      W(j, i) = W(i, j);
+    }
+
+  for (int i = 0; i < num_blocks; ++i) blocks_[i] = blocks[i];
+  num_blocks_ = num_blocks;
+  dim_ = dim;
+  return SolverStatus::kOk;
+}
+
+void MarginalPrior::tangent_error(const double* const* x, double* e,
+                                  Eigen::Matrix3d* rot_jac) const {
+  int k = 0;
+  for (int i = 0; i < num_blocks_; ++i) {
+    const PriorBlock& pb = blocks_[i];
+    manifold_minus(pb.manifold, pb.ambient_size, x[i], pb.x_lin, e + pb.offset);
+    if (pb.manifold == ManifoldType::kPose && rot_jac != nullptr)
+      rot_jac[k++] =
+          so3_right_jacobian_inverse(Eigen::Map<const Eigen::Vector3d>(e + pb.offset + 3));
+  }
+}
+
+bool MarginalPrior::evaluate(const double* const* x, double* r,
+                             const JacobianView* jacobians) const {
+  DenseVector e(dim_);
+  Eigen::Matrix3d rot_jac[capacity::kMaxReducedBlocks];
+  tangent_error(x, e.data(), rot_jac);
+  Eigen::Map<DenseVector> r_map(r, dim_);
+  r_map = r0_;
+  r_map.noalias() += J_.m() * e;
+  if (jacobians == nullptr) return r_map.allFinite();
+  int k = 0;
+  for (int i = 0; i < num_blocks_; ++i) {
+    const PriorBlock& pb = blocks_[i];
+    const bool pose = pb.manifold == ManifoldType::kPose;
+    const JacobianView& jv = jacobians[i];
+    if (!jv.wanted()) {
+      if (pose) ++k;
+      continue;
+    }
+    for (int row = 0; row < dim_; ++row) {
+      double* out = jv.data + row * jv.row_stride;
+      for (int c = 0; c < pb.tangent_size; ++c) out[c] = J_.m()(row, pb.offset + c);
+      if (pose) {
+        Eigen::Map<Eigen::RowVector3d> rot(out + 3);
+        rot = J_.m().block<1, 3>(row, pb.offset + 3) * rot_jac[k];
+      }
+    }
+    if (pose) ++k;
+  }
+  return r_map.allFinite();
+}
+
+}  // namespace ums::solver

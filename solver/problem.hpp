@@ -1,0 +1,210 @@
+#pragma once
+// A fixed-memory nonlinear least-squares problem and its solver (docs/solver.md):
+//
+//   minimize  sum_k 0.5 * rho_k(|r_k(x)|^2)  +  sum_p 0.5 * |r0_p + J_p (x [-] x_lin_p)|^2
+//
+// over parameter blocks on manifolds. Blocks marked "eliminate" (landmarks: 1-dof inverse depths,
+// or any block of up to 3 dofs) are removed by a Schur complement landmark by landmark while the
+// system is accumulated; the reduced system over the other blocks (poses, speed-biases,
+// extrinsics, time offset: up to capacity::kMaxReducedDim) is dense and solved by an in-place
+// Cholesky factorization; landmarks are back-substituted. Iterations are Levenberg-Marquardt with
+// exactly Ceres 2.1's trust-region logic (Marquardt diagonal, Jacobi scaling, Nielsen radius update,
+// gain-ratio acceptance, its tolerance tests and their order) or plain Gauss-Newton.
+//
+// Parameter values stay in caller memory (a block is a pointer to its ambient values); the solver
+// writes the optimized values there. Set-up (add_*) may be repeated after clear(); solve(),
+// evaluate_cost() and marginalize() allocate nothing. The object is large (about 1.5 MB at the
+// capacities of solver/capacity.hpp): create it once at start-up, never on a small stack.
+
+#include <Eigen/Cholesky>
+#include <Eigen/Core>
+#include <Eigen/Eigenvalues>
+#include <cstdint>
+#include <initializer_list>
+
+#include "solver/capacity.hpp"
+#include "solver/loss.hpp"
+#include "solver/manifold.hpp"
+#include "solver/marginal_prior.hpp"
+#include "solver/residual.hpp"
+#include "solver/solver_options.hpp"
+#include "solver/status.hpp"
+
+namespace ums::solver {
+
+using BlockId = int;
+inline constexpr BlockId kInvalidBlock = -1;
+
+class Problem {
+ public:
+  Problem() = default;
+  Problem(const Problem&) = delete;
+  Problem& operator=(const Problem&) = delete;
+
+  // Forgets every block, residual and prior (memory is kept).
+  void clear();
+
+  // ---- set-up ---------------------------------------------------------------------------------
+  // A block over caller memory `values` (ambient_size doubles, must stay valid until clear()).
+  // eliminate = true: a landmark-like block removed by the Schur complement (tangent <= 3).
+  // Returns kInvalidInput on NaN/Inf values or bad sizes, kFull above capacity.
+  SolverStatus add_parameter_block(double* values, int ambient_size, ManifoldType manifold,
+                                   bool eliminate, BlockId* id);
+  // Pose or extrinsic: 7 doubles [p, q.x, q.y, q.z, q.w], 6-dof tangent (manifold.hpp).
+  SolverStatus add_pose_block(double* values, BlockId* id) {
+    return add_parameter_block(values, kPoseAmbientSize, ManifoldType::kPose, false, id);
+  }
+  // Speed-bias (9), time offset (1), any vector kept in the reduced system.
+  SolverStatus add_euclidean_block(double* values, int size, BlockId* id) {
+    return add_parameter_block(values, size, ManifoldType::kEuclidean, false, id);
+  }
+  // Inverse depth (1) or another small block eliminated per landmark.
+  SolverStatus add_landmark_block(double* values, int size, BlockId* id) {
+    return add_parameter_block(values, size, ManifoldType::kEuclidean, true, id);
+  }
+  // A constant block keeps its value; residuals still read it.
+  SolverStatus set_constant(BlockId id, bool constant);
+  bool is_constant(BlockId id) const { return blocks_[id].constant; }
+  int num_blocks() const { return num_blocks_; }
+  int num_residuals() const { return num_residuals_; }
+
+  // A residual over blocks ids[0..n) (in the order fn->evaluate expects them). At most one of them
+  // may be an eliminated block. `fn` must stay valid until clear().
+  SolverStatus add_residual(const ResidualFunction* fn, const RobustLoss& loss, const BlockId* ids,
+                            int n);
+  SolverStatus add_residual(const ResidualFunction* fn, const RobustLoss& loss,
+                            std::initializer_list<BlockId> ids) {
+    return add_residual(fn, loss, ids.begin(), static_cast<int>(ids.size()));
+  }
+  // A marginalization prior over ids[i] <-> prior->block(i) (same manifold and size; no eliminated
+  // blocks). `prior` must stay valid and unchanged until clear().
+  SolverStatus add_prior(const MarginalPrior* prior, const BlockId* ids);
+
+  // ---- solving ----------------------------------------------------------------------------------
+  // Minimizes from the current values. kInvalidInput if a value or the initial residuals/Jacobians
+  // are not finite (nothing is changed then); otherwise usable(status) tells whether the values
+  // written back are a valid estimate (the last accepted iterate).
+  SolverStatus solve(const SolverOptions& options, SolverSummary* summary);
+  // Total cost at the current values (kInvalidInput when not finite).
+  SolverStatus evaluate_cost(double* cost);
+
+  // Marginalizes blocks ids[0..n): every residual and prior touching them is linearized at the
+  // current values (robust weights included), their landmarks and the listed blocks are removed by
+  // Schur complement, and the result over the remaining connected blocks is written to *out in
+  // square-root form with x_lin = current values. Eliminated blocks touched by those residuals
+  // must be in the list. out->block(i).source_id are ids of this problem. kSingular if a
+  // marginalized block carries no information at all.
+  SolverStatus marginalize(const BlockId* ids, int n, MarginalPrior* out);
+
+  // Reduced-system layout after a solve/marginalize (for diagnostics and tests): first row of a
+  // variable non-eliminated block in the reduced system, or -1.
+  int reduced_offset(BlockId id) const { return blocks_[id].eliminate ? -1 : blocks_[id].index; }
+  int reduced_dim() const { return n_red_; }
+
+ private:
+  struct Block {
+    double* x = nullptr;
+    std::int8_t ambient = 0;
+    std::int8_t tangent = 0;
+    ManifoldType manifold = ManifoldType::kEuclidean;
+    bool constant = false;
+    bool eliminate = false;
+    int index = -1;  // reduced: row offset; eliminated: landmark slot; -1 when constant
+  };
+  struct Residual {
+    const ResidualFunction* fn = nullptr;
+    RobustLoss loss;
+    std::int16_t blocks[capacity::kMaxBlocksPerResidual] = {};
+    std::int16_t slot[capacity::kMaxBlocksPerResidual] = {};  // coupling index per reduced block
+    std::int8_t num_blocks = 0;
+    std::int8_t rows = 0;
+    std::int16_t landmark = -1;  // landmark slot of its variable eliminated block, or -1
+    bool fixed = false;          // every block constant: cost only, once per solve
+  };
+  struct PriorRef {
+    const MarginalPrior* prior = nullptr;
+    std::int16_t blocks[capacity::kMaxReducedBlocks] = {};
+    bool fixed = false;
+  };
+
+  SolverStatus prepare();
+  bool evaluate_residual(const Residual& rb, bool jacobians, double* r, double* cost);
+  void accumulate_residual(int res_index, const double* r);
+  bool linearize_prior(const PriorRef& p, bool jacobians, double* cost);
+  // Cost (and, with jacobians, H_, b_, landmark blocks) at the current values; false if not finite.
+  bool linearize(bool jacobians, double* cost);
+  double fixed_cost();
+  // Solves the damped system (lm_scale = 1/radius; 0 for Gauss-Newton); false on failure.
+  bool compute_step(double lm_scale, double* model_cost_change);
+  void eliminate_landmark(int l, double lm_scale, MatrixMap S, DenseVector& rhs, bool damp);
+  double gradient_max_norm() const;
+  double variable_x_norm() const;
+
+  // Problem definition.
+  Block blocks_[capacity::kMaxParameterBlocks];
+  int num_blocks_ = 0;
+  Residual residuals_[capacity::kMaxResidualBlocks];
+  int num_residuals_ = 0;
+  PriorRef priors_[capacity::kMaxPriors];
+  int num_priors_ = 0;
+  bool prepared_ = false;
+
+  // Structure built by prepare().
+  int n_red_ = 0;
+  int num_lm_ = 0;
+  std::int16_t lm_block_[capacity::kMaxEliminatedBlocks] = {};
+  std::int8_t lm_dim_[capacity::kMaxEliminatedBlocks] = {};
+  int lm_res_begin_[capacity::kMaxEliminatedBlocks + 1] = {};
+  int lm_res_[capacity::kMaxResidualBlocks] = {};
+  int lm_cpl_begin_[capacity::kMaxEliminatedBlocks + 1] = {};
+  int free_res_[capacity::kMaxResidualBlocks] = {};
+  int num_free_res_ = 0;
+  int cpl_row_[capacity::kMaxCouplings] = {};   // reduced row offset of the coupled block
+  std::int8_t cpl_dim_[capacity::kMaxCouplings] = {};
+  int cpl_v_[capacity::kMaxCouplings] = {};     // offset into v_ of its d x e block (row-major)
+  int num_cpl_ = 0;
+  int v_used_ = 0;
+
+  // Linearization: reduced H (upper triangle) and b = J^T r; per landmark H_ll, g_l, V = J_B^T J_l.
+  DenseMatrix H_;
+  DenseVector b_;
+  double Hll_[capacity::kMaxEliminatedBlocks][9] = {};
+  double gl_[capacity::kMaxEliminatedBlocks][3] = {};
+  double v_[capacity::kMaxCouplingEntries] = {};
+
+  // Step computation.
+  DenseMatrix S_;
+  DenseVector rhs_;
+  DenseVector dx_;
+  DenseVector scale_red_;
+  double dl_[capacity::kMaxEliminatedBlocks][3] = {};
+  double winv_[capacity::kMaxEliminatedBlocks][9] = {};  // (H_ll + D)^-1 for e > 1
+  double min_diag_ = 1e-6;
+  double max_diag_ = 1e32;
+  double scale_l_[capacity::kMaxEliminatedBlocks][3] = {};
+  double backup_[capacity::kMaxParameterBlocks][capacity::kMaxBlockAmbientSize] = {};
+
+  // Per-residual workspace.
+  double jac_ws_[capacity::kMaxBlocksPerResidual]
+                [capacity::kMaxResidualSize * capacity::kMaxBlockTangentSize] = {};
+  bool jac_wanted_[capacity::kMaxBlocksPerResidual] = {};
+
+  // Prior / marginalization workspace.
+  DenseMatrix M_;
+  DenseVector pe_;
+  DenseVector pr_;
+  bool marg_[capacity::kMaxParameterBlocks] = {};
+  bool touched_[capacity::kMaxParameterBlocks] = {};
+  using MargMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor,
+                                   capacity::kMaxMarginalizedDim, capacity::kMaxMarginalizedDim>;
+  using KeptMargMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor,
+                                       capacity::kMaxReducedDim, capacity::kMaxMarginalizedDim>;
+  MargMatrix Hmm_;
+  MargMatrix Hmm_inv_;
+  KeptMargMatrix Hkm_;
+  KeptMargMatrix T_;
+  Eigen::SelfAdjointEigenSolver<MargMatrix> eig_;
+  PriorBlock prior_blocks_[capacity::kMaxReducedBlocks];
+};
+
+}  // namespace ums::solver

@@ -1,0 +1,60 @@
+#pragma once
+// Options of one nonlinear solve. The defaults equal Ceres 2.1's Solver::Options defaults for
+// Levenberg-Marquardt, so a side-by-side run matches step for step (docs/solver.md).
+
+namespace ums::solver {
+
+enum class Method : unsigned char {
+  kLevenbergMarquardt = 0,  // Ceres-identical trust region LM (Marquardt diagonal, Nielsen update)
+  kGaussNewton,             // undamped steps, every finite step accepted
+};
+
+struct SolverOptions {
+  Method method = Method::kLevenbergMarquardt;
+  int max_iterations = 50;            // count; step attempts (accepted or not), as Ceres counts
+  double max_time_s = 1e9;            // s; wall-time budget, checked before each step
+  double function_tolerance = 1e-6;   // 1; stop when |cost change| <= tol * cost
+  double gradient_tolerance = 1e-10;  // cost units per tangent unit; max-norm of the gradient
+  double parameter_tolerance = 1e-8;  // 1; stop when |dx| <= tol * (|x| + tol) (ambient norms)
+  double initial_trust_region_radius = 1e4;  // 1 / LM lambda at start
+  double max_trust_region_radius = 1e16;
+  double min_trust_region_radius = 1e-32;    // below it: converged (no progress possible)
+  double min_lm_diagonal = 1e-6;             // clamp of diag(J^T J) used for damping
+  double max_lm_diagonal = 1e32;
+  double min_relative_decrease = 1e-3;       // accept a step when actual/predicted decrease > this
+  int max_consecutive_invalid_steps = 5;     // count; then kNumericalFailure
+  bool jacobi_scaling = true;  // damp in Ceres' column-scaled coordinates (1 / (1 + |J_col|))
+
+  bool validate() const {
+    return max_iterations >= 0 && max_time_s > 0.0 && function_tolerance >= 0.0 &&
+           gradient_tolerance >= 0.0 && parameter_tolerance >= 0.0 &&
+           initial_trust_region_radius > 0.0 &&
+           max_trust_region_radius >= initial_trust_region_radius &&
+           min_trust_region_radius >= 0.0 && min_lm_diagonal > 0.0 &&
+           max_lm_diagonal >= min_lm_diagonal && min_relative_decrease >= 0.0 &&
+           max_consecutive_invalid_steps > 0;
+  }
+};
+
+enum class Termination : unsigned char {
+  kNone = 0,
+  kFunctionTolerance,
+  kParameterTolerance,
+  kGradientTolerance,
+  kMinTrustRegionRadius,
+  kMaxIterations,
+  kTimeBudget,
+  kFailure,
+};
+
+struct SolverSummary {
+  double initial_cost = 0.0;  // 0.5 * sum rho(|r|^2) + priors, at the start
+  double final_cost = 0.0;    // same, at the returned state
+  int iterations = 0;         // step attempts (Ceres: summary.iterations.size() - 1)
+  int successful_steps = 0;
+  int linearizations = 0;     // Jacobian evaluations of the whole problem
+  Termination termination = Termination::kNone;
+  double solve_time_s = 0.0;  // s; wall time inside solve()
+};
+
+}  // namespace ums::solver

@@ -1,0 +1,117 @@
+#include "solver/marginal_prior.hpp"
+
+#include <catch2/catch.hpp>
+#include <memory>
+
+#include "profiling/solver_bench/vio_window.hpp"
+
+namespace ums::solver {
+namespace {
+
+// Two poses and a speed-bias: dim 6 + 9 + 6 = 21.
+void make_blocks(PriorBlock* pb) {
+  const ManifoldType m[3] = {ManifoldType::kPose, ManifoldType::kEuclidean, ManifoldType::kPose};
+  const int amb[3] = {7, 9, 7};
+  int off = 0;
+  for (int i = 0; i < 3; ++i) {
+    pb[i].manifold = m[i];
+    pb[i].ambient_size = amb[i];
+    pb[i].tangent_size = tangent_size(m[i], amb[i]);
+    pb[i].offset = off;
+    off += pb[i].tangent_size;
+    for (int k = 0; k < amb[i]; ++k) pb[i].x_lin[k] = 0.1 * (k + 1) * (i + 1);
+    if (m[i] == ManifoldType::kPose) {
+      const Eigen::Quaterniond q = so3_exp(Eigen::Vector3d(0.1 * i, -0.2, 0.3));
+      pb[i].x_lin[3] = q.x(); pb[i].x_lin[4] = q.y(); pb[i].x_lin[5] = q.z(); pb[i].x_lin[6] = q.w();
+    }
+  }
+}
+
+TEST_CASE("Square-root prior reproduces H and b, also when rank-deficient", "[solver][prior]") {
+  bench::Rng rng(11);
+  PriorBlock pb[3];
+  make_blocks(pb);
+  const int n = 21;
+  for (const int rank : {21, 17}) {
+    Eigen::MatrixXd A(rank, n);
+    for (int r = 0; r < rank; ++r)
+      for (int c = 0; c < n; ++c) A(r, c) = rng.normal() * (c < 6 ? 100.0 : 1.0);  // mixed scales
+    const Eigen::MatrixXd H = A.transpose() * A;
+    Eigen::VectorXd z(rank);
+    for (int r = 0; r < rank; ++r) z[r] = rng.normal();
+    const Eigen::VectorXd b = A.transpose() * z;  // b in the range of H, as marginalization gives
+    auto prior = std::make_unique<MarginalPrior>();
+    REQUIRE(prior->set_from_information(pb, 3, H, b) == SolverStatus::kOk);
+    const Eigen::MatrixXd J = prior->sqrt_information();
+    const double h_err = (J.transpose() * J - H).norm() / H.norm();
+    const double b_err = (J.transpose() * prior->r0() - b).norm() / b.norm();
+    INFO("rank " << rank << " |J^T J - H|/|H| " << h_err << " |J^T r0 - b|/|b| " << b_err);
+    CHECK(h_err < 1e-12);
+    CHECK(b_err < 1e-9);
+    CHECK((prior->information() - J.transpose() * J).norm() <= 1e-12 * H.norm());
+    // Rows beyond the numerical rank carry nothing.
+    CHECK(J.bottomRows(n - rank).norm() == 0.0);
+  }
+  // NaN information is refused.
+  Eigen::MatrixXd H = Eigen::MatrixXd::Identity(n, n);
+  H(3, 5) = std::numeric_limits<double>::quiet_NaN();
+  auto prior = std::make_unique<MarginalPrior>();
+  CHECK(prior->set_from_information(pb, 3, H, Eigen::VectorXd::Zero(n)) == SolverStatus::kInvalidInput);
+}
+
+TEST_CASE("Prior residual is r0 at x_lin and its Jacobians match central differences",
+          "[solver][prior]") {
+  bench::Rng rng(5);
+  PriorBlock pb[3];
+  make_blocks(pb);
+  const int n = 21;
+  Eigen::MatrixXd A(n, n);
+  for (int r = 0; r < n; ++r)
+    for (int c = 0; c < n; ++c) A(r, c) = rng.normal();
+  const Eigen::MatrixXd H = A.transpose() * A + Eigen::MatrixXd::Identity(n, n);
+  Eigen::VectorXd b(n);
+  for (int k = 0; k < n; ++k) b[k] = rng.normal();
+  auto prior = std::make_unique<MarginalPrior>();
+  REQUIRE(prior->set_from_information(pb, 3, H, b) == SolverStatus::kOk);
+
+  double x[3][9];
+  const double* xs[3] = {x[0], x[1], x[2]};
+  for (int i = 0; i < 3; ++i)
+    for (int k = 0; k < 9; ++k) x[i][k] = pb[i].x_lin[k];
+  Eigen::VectorXd r(n);
+  REQUIRE(prior->evaluate(xs, r.data(), nullptr));
+  CHECK((r - prior->r0()).norm() < 1e-15);
+
+  // Away from x_lin (rotations of 0.3 rad) the Jacobian includes Jr^-1.
+  const double step[6] = {0.1, -0.2, 0.05, 0.2, -0.3, 0.1};
+  manifold_plus(ManifoldType::kPose, 7, pb[0].x_lin, step, x[0]);
+  manifold_plus(ManifoldType::kPose, 7, pb[2].x_lin, step, x[2]);
+  double jac[3][21 * 9];
+  JacobianView views[3] = {{jac[0], 6}, {jac[1], 9}, {jac[2], 6}};
+  REQUIRE(prior->evaluate(xs, r.data(), views));
+  double worst = 0.0;
+  for (int i = 0; i < 3; ++i) {
+    for (int c = 0; c < pb[i].tangent_size; ++c) {
+      double d[9] = {};
+      double keep[9];
+      for (int k = 0; k < 9; ++k) keep[k] = x[i][k];
+      Eigen::VectorXd rp(n), rm(n);
+      d[c] = 1e-6;
+      manifold_plus(pb[i].manifold, pb[i].ambient_size, keep, d, x[i]);
+      prior->evaluate(xs, rp.data(), nullptr);
+      d[c] = -1e-6;
+      manifold_plus(pb[i].manifold, pb[i].ambient_size, keep, d, x[i]);
+      prior->evaluate(xs, rm.data(), nullptr);
+      for (int k = 0; k < 9; ++k) x[i][k] = keep[k];
+      for (int row = 0; row < n; ++row) {
+        const double num = (rp[row] - rm[row]) / 2e-6;
+        worst = std::max(worst, std::abs(num - jac[i][row * pb[i].tangent_size + c]));
+      }
+    }
+  }
+  INFO("worst Jacobian error " << worst);
+  CHECK(worst < 1e-7);
+}
+
+}  // namespace
+}  // namespace ums::solver

@@ -1,0 +1,467 @@
+#include "solver/problem.hpp"
+
+#include <Eigen/Cholesky>
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <vector>
+
+#include "profiling/alloc_counter.hpp"
+#include "profiling/solver_bench/vio_window.hpp"
+
+namespace ums::solver {
+namespace {
+
+using bench::BlockKind;
+using bench::BlockRef;
+using bench::VioWindow;
+using bench::WindowConfig;
+
+WindowConfig small_window(bool noise_free, bool prior) {
+  WindowConfig cfg;
+  cfg.frames = 5;
+  cfg.landmarks = 40;
+  cfg.max_obs = 5;
+  cfg.noise_free = noise_free;
+  cfg.with_prior = prior;
+  cfg.seed = 7;
+  return cfg;
+}
+
+// Block ids of add_to_problem's enumeration.
+int block_id(const VioWindow& w, const BlockRef& b) {
+  const int F = static_cast<int>(w.poses.size());
+  switch (b.kind) {
+    case BlockKind::kPose: return b.index;
+    case BlockKind::kSpeedBias: return F + b.index;
+    case BlockKind::kExtrinsic: return 2 * F;
+    case BlockKind::kInverseDepth: return 2 * F + 1 + b.index;
+  }
+  return -1;
+}
+struct Shape {
+  ManifoldType manifold;
+  int ambient;
+  int tangent;
+};
+Shape shape(const VioWindow& w, int id) {
+  const int F = static_cast<int>(w.poses.size());
+  if (id < F || id == 2 * F) return {ManifoldType::kPose, 7, 6};
+  if (id < 2 * F) return {ManifoldType::kEuclidean, 9, 9};
+  return {ManifoldType::kEuclidean, 1, 1};
+}
+double* block_data(VioWindow& w, int id) {
+  const int F = static_cast<int>(w.poses.size());
+  if (id < F) return w.poses[id].data();
+  if (id < 2 * F) return w.speed_bias[id - F].data();
+  if (id == 2 * F) return w.extrinsic.data();
+  return &w.inv_depth[id - 2 * F - 1];
+}
+int num_ids(const VioWindow& w) { return 2 * static_cast<int>(w.poses.size()) + 1 + static_cast<int>(w.inv_depth.size()); }
+
+// Snapshot of every block's ambient values, in id order.
+std::vector<double> snapshot(VioWindow& w) {
+  std::vector<double> s;
+  for (int id = 0; id < num_ids(w); ++id) {
+    const Shape sh = shape(w, id);
+    const double* x = block_data(w, id);
+    s.insert(s.end(), x, x + sh.ambient);
+  }
+  return s;
+}
+// Tangent difference after - before for every block (id order).
+Eigen::VectorXd tangent_delta(VioWindow& w, const std::vector<double>& before) {
+  std::vector<double> d;
+  std::size_t o = 0;
+  for (int id = 0; id < num_ids(w); ++id) {
+    const Shape sh = shape(w, id);
+    double t[9];
+    manifold_minus(sh.manifold, sh.ambient, block_data(w, id), before.data() + o, t);
+    d.insert(d.end(), t, t + sh.tangent);
+    o += static_cast<std::size_t>(sh.ambient);
+  }
+  return Eigen::Map<Eigen::VectorXd>(d.data(), static_cast<Eigen::Index>(d.size()));
+}
+
+// Dense J (robust-corrected) and r of the whole window over all blocks (id order), built without
+// the solver's accumulation code: the reference for the Schur path.
+void dense_system(VioWindow& w, Eigen::MatrixXd* J, Eigen::VectorXd* r) {
+  std::vector<int> offset(static_cast<std::size_t>(num_ids(w)));
+  int dim = 0;
+  for (int id = 0; id < num_ids(w); ++id) {
+    offset[static_cast<std::size_t>(id)] = dim;
+    dim += shape(w, id).tangent;
+  }
+  int rows = 0;
+  for (const auto& rd : w.residuals) rows += rd.fn->num_residuals();
+  if (w.prior) rows += w.prior->dim();
+  J->setZero(rows, dim);
+  r->setZero(rows);
+  int row = 0;
+  for (const auto& rd : w.residuals) {
+    const int m = rd.fn->num_residuals();
+    const double* params[4];
+    double jac[4][15 * 9];
+    JacobianView views[4];
+    for (int k = 0; k < rd.num_blocks; ++k) {
+      const int id = block_id(w, rd.blocks[k]);
+      params[k] = block_data(w, id);
+      views[k] = {jac[k], shape(w, id).tangent};
+    }
+    double res[15];
+    REQUIRE(rd.fn->evaluate(params, res, views));
+    double sq = 0.0;
+    for (int i = 0; i < m; ++i) sq += res[i] * res[i];
+    double rho[3];
+    rd.loss.evaluate(sq, rho);
+    LossCorrector corr(sq, rho);
+    for (int k = 0; k < rd.num_blocks; ++k) {
+      const int id = block_id(w, rd.blocks[k]);
+      const int t = shape(w, id).tangent;
+      corr.correct_jacobian(m, t, t, res, jac[k]);
+      for (int i = 0; i < m; ++i)
+        for (int c = 0; c < t; ++c) (*J)(row + i, offset[static_cast<std::size_t>(id)] + c) = jac[k][i * t + c];
+    }
+    corr.correct_residual(m, res);
+    for (int i = 0; i < m; ++i) (*r)(row + i) = res[i];
+    row += m;
+  }
+  if (w.prior) {
+    const int n = w.prior->dim();
+    std::vector<const double*> xs;
+    std::vector<std::vector<double>> jb(w.prior_blocks.size());
+    std::vector<JacobianView> views;
+    for (std::size_t k = 0; k < w.prior_blocks.size(); ++k) {
+      const int id = block_id(w, w.prior_blocks[k]);
+      xs.push_back(block_data(w, id));
+      jb[k].resize(static_cast<std::size_t>(n * shape(w, id).tangent));
+      views.push_back({jb[k].data(), shape(w, id).tangent});
+    }
+    std::vector<double> res(static_cast<std::size_t>(n));
+    REQUIRE(w.prior->evaluate(xs.data(), res.data(), views.data()));
+    for (std::size_t k = 0; k < w.prior_blocks.size(); ++k) {
+      const int id = block_id(w, w.prior_blocks[k]);
+      const int t = shape(w, id).tangent;
+      for (int i = 0; i < n; ++i)
+        for (int c = 0; c < t; ++c)
+          (*J)(row + i, offset[static_cast<std::size_t>(id)] + c) = jb[k][static_cast<std::size_t>(i * t + c)];
+    }
+    for (int i = 0; i < n; ++i) (*r)(row + i) = res[static_cast<std::size_t>(i)];
+  }
+}
+
+SolverOptions one_step(Method method) {
+  SolverOptions o;
+  o.method = method;
+  o.max_iterations = 1;
+  o.function_tolerance = 0.0;
+  o.parameter_tolerance = 0.0;
+  o.gradient_tolerance = 0.0;
+  return o;
+}
+
+TEST_CASE("LM reaches the known optimum of a noise-free window", "[solver][problem]") {
+  auto w = bench::make_vio_window(small_window(true, true));
+  auto problem = std::make_unique<Problem>();
+  REQUIRE(bench::add_to_problem(*w, *problem) == SolverStatus::kOk);
+  SolverOptions opt;
+  opt.function_tolerance = 1e-12;
+  SolverSummary sum;
+  const SolverStatus st = problem->solve(opt, &sum);
+  INFO("status " << to_string(st) << " iterations " << sum.iterations << " cost "
+                 << sum.initial_cost << " -> " << sum.final_cost);
+  CHECK(usable(st));
+  CHECK(sum.initial_cost > 1e3);
+  CHECK(sum.final_cost < 1e-12);
+  double pos_err = 0.0;
+  double rho_err = 0.0;
+  for (std::size_t i = 0; i < w->poses.size(); ++i)
+    for (int k = 0; k < 3; ++k) pos_err = std::max(pos_err, std::abs(w->poses[i][static_cast<std::size_t>(k)] - w->poses_true[i][static_cast<std::size_t>(k)]));
+  for (std::size_t l = 0; l < w->inv_depth.size(); ++l)
+    rho_err = std::max(rho_err, std::abs(w->inv_depth[l] / w->inv_depth_true[l] - 1.0));
+  CHECK(pos_err < 1e-7);  // m
+  CHECK(rho_err < 1e-6);  // relative
+}
+
+TEST_CASE("Gauge fixed by a constant first pose (no prior): converges to the truth",
+          "[solver][problem]") {
+  auto w = bench::make_vio_window(small_window(true, false));
+  auto problem = std::make_unique<Problem>();
+  // The fixed first pose takes its true value; every other block starts perturbed.
+  w->poses[0] = w->poses_true[0];
+  REQUIRE(bench::add_to_problem(*w, *problem) == SolverStatus::kOk);
+  REQUIRE(problem->set_constant(0, true) == SolverStatus::kOk);
+  for (const Method m : {Method::kLevenbergMarquardt, Method::kGaussNewton}) {
+    w->reset();
+    w->poses[0] = w->poses_true[0];
+    SolverOptions opt;
+    opt.method = m;
+    opt.function_tolerance = 1e-12;
+    SolverSummary sum;
+    const SolverStatus st = problem->solve(opt, &sum);
+    INFO("method " << static_cast<int>(m) << " status " << to_string(st) << " cost " << sum.final_cost);
+    CHECK(usable(st));
+    CHECK(problem->reduced_offset(0) == -1);
+    CHECK(problem->reduced_dim() == 4 * 6 + 5 * 9 + 6);
+    CHECK(sum.final_cost < 1e-12);
+    double yaw_err = 0.0;
+    for (std::size_t i = 0; i < w->poses.size(); ++i) {
+      const Eigen::Quaterniond q(w->poses[i][6], w->poses[i][3], w->poses[i][4], w->poses[i][5]);
+      const Eigen::Quaterniond qt(w->poses_true[i][6], w->poses_true[i][3], w->poses_true[i][4],
+                                  w->poses_true[i][5]);
+      yaw_err = std::max(yaw_err, q.angularDistance(qt));
+    }
+    CHECK(yaw_err < 1e-8);  // rad
+  }
+}
+
+// A 2-D point seen by 20 measurements, 5 of them gross outliers.
+class PointResidual final : public ResidualFunction {
+ public:
+  PointResidual(double mx, double my) : m_{mx, my} {}
+  int num_residuals() const override { return 2; }
+  bool evaluate(const double* const* x, double* r, const JacobianView* jac) const override {
+    r[0] = (x[0][0] - m_[0]) / 0.1;  // sigma 0.1 m
+    r[1] = (x[0][1] - m_[1]) / 0.1;
+    if (jac[0].wanted()) jacobian_map<2, 2>(jac[0]) = 10.0 * Eigen::Matrix2d::Identity();
+    return true;
+  }
+
+ private:
+  double m_[2];
+};
+
+TEST_CASE("Huber and Cauchy reject planted outliers that pull least squares away",
+          "[solver][problem]") {
+  bench::Rng rng(3);
+  std::vector<PointResidual> meas;
+  for (int i = 0; i < 20; ++i) {
+    const bool outlier = i % 4 == 0;  // 5 of 20
+    meas.emplace_back(1.0 + (outlier ? 5.0 : 0.1 * rng.normal()), -2.0 + (outlier ? 4.0 : 0.1 * rng.normal()));
+  }
+  auto problem = std::make_unique<Problem>();
+  double err[3] = {};
+  double cost[3] = {};
+  const RobustLoss losses[3] = {RobustLoss::trivial(), RobustLoss::huber(1.0), RobustLoss::cauchy(1.0)};
+  for (int k = 0; k < 3; ++k) {
+    problem->clear();
+    double x[2] = {0.0, 0.0};
+    BlockId id = 0;
+    REQUIRE(problem->add_euclidean_block(x, 2, &id) == SolverStatus::kOk);
+    for (const auto& m : meas) REQUIRE(problem->add_residual(&m, losses[k], {id}) == SolverStatus::kOk);
+    SolverOptions opt;
+    opt.function_tolerance = 1e-14;
+    opt.parameter_tolerance = 1e-14;
+    SolverSummary sum;
+    REQUIRE(usable(problem->solve(opt, &sum)));
+    err[k] = std::hypot(x[0] - 1.0, x[1] + 2.0);
+    cost[k] = sum.final_cost;
+    // The reported cost is 0.5 * sum rho(|r|^2), recomputed here independently.
+    double expect = 0.0;
+    for (const auto& m : meas) {
+      const double* p[1] = {x};
+      double r[2];
+      JacobianView none[1];
+      m.evaluate(p, r, none);
+      double rho[3];
+      losses[k].evaluate(r[0] * r[0] + r[1] * r[1], rho);
+      expect += 0.5 * rho[0];
+    }
+    CHECK(cost[k] == Approx(expect).epsilon(1e-12));
+  }
+  INFO("error trivial " << err[0] << " huber " << err[1] << " cauchy " << err[2] << " m");
+  CHECK(err[0] > 1.0);   // least squares is dragged about 1.6 m away
+  CHECK(err[1] < 0.15);  // Huber: bounded influence
+  CHECK(err[2] < 0.06);  // Cauchy: outliers nearly ignored
+}
+
+TEST_CASE("Schur-complement steps equal dense solves of the full system", "[solver][problem]") {
+  auto w = bench::make_vio_window(small_window(false, true));
+  auto problem = std::make_unique<Problem>();
+  REQUIRE(bench::add_to_problem(*w, *problem) == SolverStatus::kOk);
+  Eigen::MatrixXd J;
+  Eigen::VectorXd r;
+  dense_system(*w, &J, &r);
+  const Eigen::MatrixXd H = J.transpose() * J;
+  const Eigen::VectorXd g = J.transpose() * r;
+
+  SECTION("Gauss-Newton step") {
+    const Eigen::VectorXd expected = -H.ldlt().solve(g);
+    const std::vector<double> before = snapshot(*w);
+    SolverSummary sum;
+    REQUIRE(usable(problem->solve(one_step(Method::kGaussNewton), &sum)));
+    REQUIRE(sum.successful_steps == 1);
+    const Eigen::VectorXd got = tangent_delta(*w, before);
+    const double rel = (got - expected).norm() / expected.norm();
+    INFO("relative difference " << rel << " |step| " << expected.norm());
+    CHECK(rel < 1e-8);
+  }
+  SECTION("Levenberg-Marquardt step with Ceres' Jacobi-scaled Marquardt diagonal") {
+    Eigen::MatrixXd Hd = H;
+    for (int i = 0; i < H.rows(); ++i) {
+      const double s = 1.0 / (1.0 + std::sqrt(H(i, i)));
+      Hd(i, i) += std::clamp(s * s * H(i, i), 1e-6, 1e32) / (s * s) / 1e4;
+    }
+    const Eigen::VectorXd expected = -Hd.ldlt().solve(g);
+    const std::vector<double> before = snapshot(*w);
+    SolverSummary sum;
+    REQUIRE(usable(problem->solve(one_step(Method::kLevenbergMarquardt), &sum)));
+    REQUIRE(sum.successful_steps == 1);
+    const Eigen::VectorXd got = tangent_delta(*w, before);
+    const double rel = (got - expected).norm() / expected.norm();
+    INFO("relative difference " << rel);
+    CHECK(rel < 1e-8);
+  }
+}
+
+TEST_CASE("Marginalization gives the same step as the full problem's reduced system",
+          "[solver][problem][marginalization]") {
+  auto w = bench::make_vio_window(small_window(false, true));
+  auto full = std::make_unique<Problem>();
+  REQUIRE(bench::add_to_problem(*w, *full) == SolverStatus::kOk);
+  const std::vector<double> x0 = snapshot(*w);
+
+  // Blocks to drop: frame 0 (pose, speed-bias) and the landmarks it hosts.
+  const int F = static_cast<int>(w->poses.size());
+  std::vector<BlockId> marg = {0, F};
+  for (std::size_t l = 0; l < w->host.size(); ++l)
+    if (w->host[l] == 0) marg.push_back(2 * F + 1 + static_cast<int>(l));
+  REQUIRE(marg.size() > 3);
+  auto prior = std::make_unique<MarginalPrior>();
+  REQUIRE(full->marginalize(marg.data(), static_cast<int>(marg.size()), prior.get()) == SolverStatus::kOk);
+  // Kept: poses 1..4 (IMU 0-1, landmarks, old prior), speed-bias 1 (IMU), extrinsic, and the
+  // speed-biases 2..4 are untouched, so not in the prior.
+  CHECK(prior->num_blocks() == 4 + 1 + 1);
+  CHECK(prior->dim() == 4 * 6 + 9 + 6);
+
+  // Full problem, one Gauss-Newton step from x0.
+  SolverSummary sum;
+  REQUIRE(usable(full->solve(one_step(Method::kGaussNewton), &sum)));
+  const Eigen::VectorXd d_full = tangent_delta(*w, x0);
+
+  // Reduced problem: residuals not touching the dropped blocks + the new prior.
+  w->reset();
+  auto reduced = std::make_unique<Problem>();
+  for (int id = 0; id < num_ids(*w); ++id) {
+    BlockId got = 0;
+    const Shape sh = shape(*w, id);
+    REQUIRE(reduced->add_parameter_block(block_data(*w, id), sh.ambient, sh.manifold,
+                                         id > 2 * F, &got) == SolverStatus::kOk);
+  }
+  for (BlockId id : marg) REQUIRE(reduced->set_constant(id, true) == SolverStatus::kOk);
+  for (const auto& rd : w->residuals) {
+    BlockId ids[4];
+    bool dropped = false;
+    for (int k = 0; k < rd.num_blocks; ++k) {
+      ids[k] = block_id(*w, rd.blocks[k]);
+      for (BlockId m : marg) dropped = dropped || m == ids[k];
+    }
+    if (!dropped) REQUIRE(reduced->add_residual(rd.fn, rd.loss, ids, rd.num_blocks) == SolverStatus::kOk);
+  }
+  BlockId prior_ids[capacity::kMaxReducedBlocks];
+  for (int i = 0; i < prior->num_blocks(); ++i) prior_ids[i] = prior->block(i).source_id;
+  REQUIRE(reduced->add_prior(prior.get(), prior_ids) == SolverStatus::kOk);
+  REQUIRE(usable(reduced->solve(one_step(Method::kGaussNewton), &sum)));
+  const Eigen::VectorXd d_red = tangent_delta(*w, x0);
+
+  // Compare every kept (non-marginalized) block.
+  double worst = 0.0, scale = 0.0;
+  int o = 0;
+  for (int id = 0; id < num_ids(*w); ++id) {
+    const int t = shape(*w, id).tangent;
+    bool dropped = false;
+    for (BlockId m : marg) dropped = dropped || m == id;
+    if (!dropped) {
+      worst = std::max(worst, (d_full.segment(o, t) - d_red.segment(o, t)).lpNorm<Eigen::Infinity>());
+      scale = std::max(scale, d_full.segment(o, t).lpNorm<Eigen::Infinity>());
+    }
+    o += t;
+  }
+  INFO("max |step difference| " << worst << " max |step| " << scale);
+  CHECK(scale > 1e-3);
+  CHECK(worst <= 1e-9 * scale);
+}
+
+TEST_CASE("NaN and Inf inputs are rejected with a status, values untouched", "[solver][problem]") {
+  auto w = bench::make_vio_window(small_window(false, true));
+  auto problem = std::make_unique<Problem>();
+  double bad[9] = {0, 0, 0, 0, 0, 0, 0, 0, std::numeric_limits<double>::quiet_NaN()};
+  BlockId id = 0;
+  CHECK(problem->add_euclidean_block(bad, 9, &id) == SolverStatus::kInvalidInput);
+  CHECK(id == kInvalidBlock);
+  bad[8] = std::numeric_limits<double>::infinity();
+  CHECK(problem->add_landmark_block(bad + 8, 1, &id) == SolverStatus::kInvalidInput);
+
+  REQUIRE(bench::add_to_problem(*w, *problem) == SolverStatus::kOk);
+  // A value that became NaN after set-up (e.g. a broken propagation): solve refuses.
+  w->speed_bias[2][4] = std::numeric_limits<double>::quiet_NaN();
+  const std::vector<double> before = snapshot(*w);
+  SolverSummary sum;
+  CHECK(problem->solve(SolverOptions{}, &sum) == SolverStatus::kInvalidInput);
+  double c = 0.0;
+  CHECK(problem->evaluate_cost(&c) == SolverStatus::kInvalidInput);
+  // An infinite inverse depth makes residuals non-finite: refused too.
+  w->reset();
+  w->inv_depth[3] = std::numeric_limits<double>::infinity();
+  CHECK(problem->solve(SolverOptions{}, &sum) == SolverStatus::kInvalidInput);
+  CHECK(std::isinf(w->inv_depth[3]));
+  CHECK(w->poses[1] == w->poses0[1]);  // nothing moved
+  // Bad options are refused as well.
+  w->reset();
+  SolverOptions bad_opt;
+  bad_opt.min_lm_diagonal = -1.0;
+  CHECK(problem->solve(bad_opt, &sum) == SolverStatus::kInvalidInput);
+  CHECK(usable(problem->solve(SolverOptions{}, &sum)));
+}
+
+TEST_CASE("Iteration and time bounds stop the solve with their status", "[solver][problem]") {
+  auto w = bench::make_vio_window(small_window(false, true));
+  auto problem = std::make_unique<Problem>();
+  REQUIRE(bench::add_to_problem(*w, *problem) == SolverStatus::kOk);
+  SolverOptions opt;
+  opt.max_iterations = 2;
+  opt.function_tolerance = 0.0;
+  SolverSummary sum;
+  CHECK(problem->solve(opt, &sum) == SolverStatus::kMaxIterations);
+  CHECK(sum.iterations == 2);
+  CHECK(sum.final_cost < sum.initial_cost);
+  w->reset();
+  opt.max_iterations = 100;
+  opt.max_time_s = 1e-9;  // s: exhausted before the first step
+  CHECK(problem->solve(opt, &sum) == SolverStatus::kTimeBudget);
+  CHECK(sum.iterations == 0);
+  CHECK(sum.final_cost == sum.initial_cost);
+}
+
+TEST_CASE("Solve, cost evaluation and marginalization allocate nothing after set-up",
+          "[solver][problem][alloc]") {
+  WindowConfig cfg;
+  cfg.frames = 11;
+  cfg.landmarks = 120;
+  auto w = bench::make_vio_window(cfg);
+  auto problem = std::make_unique<Problem>();
+  auto prior = std::make_unique<MarginalPrior>();
+  REQUIRE(bench::add_to_problem(*w, *problem) == SolverStatus::kOk);
+  std::vector<BlockId> marg = {0, 11};
+  for (std::size_t l = 0; l < w->host.size(); ++l)
+    if (w->host[l] == 0) marg.push_back(23 + static_cast<int>(l));
+  SolverOptions opt;
+  opt.max_iterations = 10;
+  SolverSummary sum;
+  double cost = 0.0;
+  AllocScope scope;
+  const SolverStatus st = problem->solve(opt, &sum);
+  const SolverStatus sc = problem->evaluate_cost(&cost);
+  const SolverStatus sm = problem->marginalize(marg.data(), static_cast<int>(marg.size()), prior.get());
+  const auto allocations = scope.allocations();
+  CHECK(usable(st));
+  CHECK(sc == SolverStatus::kOk);
+  CHECK(sm == SolverStatus::kOk);
+  CHECK(cost == Approx(sum.final_cost).epsilon(1e-12));
+  CHECK(sum.iterations >= 2);
+  if (alloc_counter_available()) CHECK(allocations == 0);
+}
+
+}  // namespace
+}  // namespace ums::solver
