@@ -79,7 +79,7 @@ JsonWriter& JsonWriter::end_array() {
   return *this;
 }
 
-JsonWriter& JsonWriter::value(const char* key, double v) {
+JsonWriter& JsonWriter::value(const char* key, double v, int significant_digits) {
   open_item(key);
   if (!std::isfinite(v)) {
     out_ += "null";
@@ -88,6 +88,11 @@ JsonWriter& JsonWriter::value(const char* key, double v) {
   // The shortest of 15, 16 or 17 significant digits that reads back exactly: 0.1 stays "0.1",
   // absolute timestamps in seconds keep their microseconds.
   char buf[40];
+  if (significant_digits > 0) {
+    std::snprintf(buf, sizeof(buf), "%.*g", significant_digits, v);
+    out_ += buf;
+    return *this;
+  }
   for (int digits = 15; digits <= 17; ++digits) {
     std::snprintf(buf, sizeof(buf), "%.*g", digits, v);
     if (std::strtod(buf, nullptr) == v) break;

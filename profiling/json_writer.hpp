@@ -17,7 +17,9 @@ class JsonWriter {
   JsonWriter& begin_array(const char* key = nullptr);
   JsonWriter& end_array();
 
-  JsonWriter& value(const char* key, double v);
+  // significant_digits = 0: the shortest text that reads back exactly; else that many digits
+  // (for measured times, where 17 digits would only print noise).
+  JsonWriter& value(const char* key, double v, int significant_digits = 0);
   JsonWriter& value(const char* key, std::int64_t v);
   JsonWriter& value(const char* key, std::uint64_t v);
   JsonWriter& value(const char* key, int v) { return value(key, static_cast<std::int64_t>(v)); }

@@ -34,6 +34,7 @@ if printf '%s\n' "${missing[@]}" | grep -q ':arm64'; then
   fi
 fi
 export DEBIAN_FRONTEND=noninteractive
-"${sudo_cmd[@]}" apt-get update -qq
+# A mirror in mid-sync can fail one index; the install below still works from the others.
+"${sudo_cmd[@]}" apt-get update -qq || echo "deps: apt-get update reported errors, installing anyway" >&2
 "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 echo "deps: done"

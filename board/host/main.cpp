@@ -1,8 +1,10 @@
-#include <cstdio>
+#include <iostream>
+#include <string>
+#include <vector>
 
-#include "core/common/version.hpp"
+#include "board/host/commands.hpp"
 
-int main() {
-  std::printf("%s\n", ums::version_string());
-  return 0;
+int main(int argc, char** argv) {
+  std::vector<std::string> args(argv + 1, argv + argc);
+  return ums::cli::run_cli(args, std::cout, std::cerr);
 }

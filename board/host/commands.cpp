@@ -1,0 +1,72 @@
+#include "board/host/commands.hpp"
+
+#include <exception>
+
+#include "board/host/cli_args.hpp"
+#include "core/common/version.hpp"
+
+namespace ums::cli {
+namespace {
+
+constexpr const char* kUsage = R"(umsvins: stereo visual-inertial odometry (UMS-VINS) for embedded boards
+
+usage: umsvins <command> [options]
+
+  replay <dataset> [--config F] [--out DIR] [--start S] [--duration S] [--realtime]
+                   [--frontend-only] [--quiet]
+      Run on an EuRoC-layout folder (the one holding mav0/). Writes DIR/stats.json
+      (and DIR/trajectory.tum, DIR/report.html where those stages exist). Default DIR: out/replay.
+  simulate [--trajectory F] [--scenario NAME] [--seed N] [--duration S] --out DIR
+      Write a synthetic EuRoC-layout stereo+IMU dataset.
+  eval --estimate F --groundtruth F [--align se3|sim3|posyaw]
+      Print ATE and RPE of a trajectory against ground truth.
+  sweep <dataset> --runs N --start-range A:B --out DIR
+      Repeat replay from random start times (robustness table).
+  live --config F [--source replay:DIR]      Run on a RealSense D455 (or a recorded source).
+  record --out DIR [--seconds S]             Record a D455 to the EuRoC layout.
+  budget [--config F]                        Print the static memory budget.
+  version                                    Print the version.
+
+exit codes: 0 ok, 1 failure (the message names file, line or key), 2 capability not implemented
+yet, 64 wrong usage.
+)";
+
+int not_implemented(const std::string& command, const char* issue, std::ostream& err) {
+  err << "umsvins " << command << ": not implemented yet (" << issue
+      << "); nothing was run and nothing was written.\n";
+  return kExitNotImplemented;
+}
+
+}  // namespace
+
+int run_cli(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  if (args.empty() || args[0] == "help" || args[0] == "--help" || args[0] == "-h") {
+    (args.empty() ? err : out) << kUsage;
+    return args.empty() ? kExitUsage : kExitOk;
+  }
+  const std::string& command = args[0];
+  const std::vector<std::string> rest(args.begin() + 1, args.end());
+  try {
+    if (command == "version" || command == "--version") {
+      out << version_string() << "\n";
+      return kExitOk;
+    }
+    if (command == "replay") return run_replay(rest, out, err);
+    if (command == "simulate") return run_simulate(rest, out, err);
+    if (command == "eval") return run_eval(rest, out, err);
+    if (command == "sweep") return not_implemented(command, "needs the estimator, issue 7", err);
+    if (command == "live") return not_implemented(command, "D455 live app, issue 9", err);
+    if (command == "record") return not_implemented(command, "D455 recorder, issue 9", err);
+    if (command == "budget") return not_implemented(command, "memory budget, issue 8", err);
+    err << "umsvins: unknown command '" << command << "'\n\n" << kUsage;
+    return kExitUsage;
+  } catch (const UsageError& e) {
+    err << e.what() << "\n";
+    return kExitUsage;
+  } catch (const std::exception& e) {
+    err << "umsvins " << command << ": " << e.what() << "\n";
+    return kExitFailure;
+  }
+}
+
+}  // namespace ums::cli

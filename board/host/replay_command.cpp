@@ -1,0 +1,151 @@
+// umsvins replay: streams an EuRoC-layout dataset through the pipeline and reports.
+//
+// Until the estimator exists (issue 7) the pipeline runs what exists: the measurement stream
+// (and the front end with --frontend-only once it lands). No trajectory is written without an
+// estimator: the command says so instead of writing a fake one.
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <thread>
+
+#include "board/config/app_config.hpp"
+#include "board/host/cli_args.hpp"
+#include "board/host/commands.hpp"
+#include "board/host/replay_pipeline.hpp"
+#include "core/common/version.hpp"
+#include "hal/replay/euroc_reader.hpp"
+#include "profiling/json_writer.hpp"
+#include "profiling/progress.hpp"
+
+namespace ums::cli {
+namespace {
+
+void write_file(const std::filesystem::path& path, const std::string& text) {
+  std::ofstream f(path);
+  if (!f) throw std::runtime_error(path.string() + ": cannot open for writing");
+  f << text;
+  if (!f) throw std::runtime_error(path.string() + ": write failed");
+}
+
+void write_timing(JsonWriter& w, const StageTimes& times) {
+  w.begin_object("timing_ms");
+  for (std::size_t i = 0; i < static_cast<std::size_t>(Stage::kCount); ++i) {
+    const Stage stage = static_cast<Stage>(i);
+    const StageSummary s = times.summary(stage);
+    if (s.count == 0) continue;
+    w.begin_object(stage_name(stage))
+        .value("median", s.median_ms, 4)
+        .value("p99", s.p99_ms, 4)
+        .value("max", s.max_ms, 4)
+        .value("mean", s.mean_ms, 4)
+        .value("count", s.count)
+        .end_object();
+  }
+  w.end_object();
+}
+
+}  // namespace
+
+int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
+  const Args args("replay", argv, {"realtime", "frontend-only", "quiet"},
+                  {"config", "out", "start", "duration"});
+  args.require_positionals(1, "<dataset> (the folder holding mav0/)");
+  const std::string dataset = args.positionals()[0];
+  const std::filesystem::path out_dir = args.get_or("out", "out/replay");
+
+  hal::EurocReaderOptions reader_options;
+  reader_options.start_s = args.get_double("start", 0.0);
+  reader_options.duration_s = args.get_double("duration", 0.0);
+  if (reader_options.start_s < 0.0) throw UsageError("umsvins replay: --start must be >= 0 s");
+  if (reader_options.duration_s < 0.0) throw UsageError("umsvins replay: --duration must be >= 0 s");
+
+  hal::EurocReader reader;
+  reader.open(dataset, reader_options);  // throws with file:line on bad input
+
+  std::vector<std::string> warnings;
+  const AppConfig config = args.get("config")
+                               ? load_config(*args.get("config"), reader.calibration(), &warnings)
+                               : config_from_calibration(reader.calibration());
+  for (const std::string& w : warnings) err << "warning: " << w << "\n";
+
+  std::filesystem::create_directories(out_dir);
+
+  ReplayPipelineOptions pipeline_options;
+  pipeline_options.frontend_only = args.has("frontend-only");
+  ReplayPipeline pipeline(config, pipeline_options);
+
+  const bool quiet = args.has("quiet");
+  Progress progress("replay", static_cast<unsigned long>(reader.total_pairs_estimate()));
+  const bool realtime = args.has("realtime");
+
+  const auto wall_start = std::chrono::steady_clock::now();
+  std::int64_t first_t_ns = -1;
+  ImuSample imu;
+  StereoFrame frame;
+  for (;;) {
+    const hal::EurocReader::Event event = reader.next(&imu, &frame);
+    if (event == hal::EurocReader::Event::kEnd) break;
+    const std::int64_t t_ns = event == hal::EurocReader::Event::kImu ? imu.t_ns : frame.t_ns;
+    if (first_t_ns < 0) first_t_ns = t_ns;
+    if (realtime) {
+      // Pace the stream by the data's own clock, as a live sensor would deliver it.
+      const auto due = wall_start + std::chrono::nanoseconds(t_ns - first_t_ns);
+      std::this_thread::sleep_until(due);
+    }
+    if (event == hal::EurocReader::Event::kImu) {
+      pipeline.on_imu(imu);
+    } else {
+      pipeline.on_stereo(frame);
+      if (!quiet) progress.update(static_cast<unsigned long>(pipeline.frames()));
+    }
+  }
+  if (reader.status() != Status::kOk) {
+    // The files changed under us after open() validated them: say where, keep what was done.
+    err << "umsvins replay: stopped early: " << reader.error() << "\n";
+  }
+  const double wall_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  if (!quiet) progress.finish();
+
+  const hal::EurocReaderCounters& counters = reader.counters();
+  const ReplaySummary summary = pipeline.summary();
+
+  JsonWriter w;
+  w.begin_object();
+  w.value("version", version_string());
+  w.value("dataset", dataset);
+  w.value("frames", summary.frames);
+  w.value("imu_samples", summary.imu_samples);
+  w.value("duration_s", summary.duration_s);
+  w.value("processing_s", summary.processing_s, 4);
+  w.value("wall_s", wall_s, 4);
+  write_timing(w, pipeline.stage_times());
+  pipeline.write_stats(w);
+  w.begin_object("input")
+      .value("stereo_pairs", static_cast<std::uint64_t>(counters.stereo_pairs))
+      .value("unpaired_left", static_cast<std::uint64_t>(counters.unpaired_left))
+      .value("unpaired_right", static_cast<std::uint64_t>(counters.unpaired_right))
+      .value("unreadable_images", static_cast<std::uint64_t>(counters.unreadable_images))
+      .end_object();
+  w.end_object();
+  write_file(out_dir / "stats.json", w.str());
+
+  out << "replay: " << summary.frames << " stereo pairs, " << summary.imu_samples
+      << " IMU samples, " << summary.duration_s << " s of data in " << wall_s << " s ("
+      << summary.processing_s << " s in the pipeline)\n";
+  if (counters.unpaired_left + counters.unpaired_right + counters.unreadable_images > 0) {
+    out << "replay: skipped " << counters.unpaired_left << " unpaired left, "
+        << counters.unpaired_right << " unpaired right, " << counters.unreadable_images
+        << " unreadable images\n";
+  }
+  pipeline.print_summary(out);
+  out << "replay: wrote " << (out_dir / "stats.json").string() << "\n";
+  if (!pipeline.has_estimator()) {
+    out << "replay: no trajectory written: the estimator is not implemented yet (issue 7)\n";
+  }
+  return kExitOk;
+}
+
+}  // namespace ums::cli

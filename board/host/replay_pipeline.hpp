@@ -1,0 +1,59 @@
+#pragma once
+// The pipeline a replay (and later the live app) pushes measurements into: timing per stage,
+// steady-state allocation accounting and the stages that exist. It owns no threads; the caller
+// pushes in time order.
+
+#include <cstdint>
+#include <ostream>
+
+#include "board/config/app_config.hpp"
+#include "core/common/measurement_sink.hpp"
+#include "profiling/json_writer.hpp"
+#include "profiling/stage_timer.hpp"
+
+namespace ums::cli {
+
+struct ReplayPipelineOptions {
+  bool frontend_only = false;      // run the front end and stop there
+  std::uint64_t steady_state_from_frame = 50;  // frames before this are warm-up for alloc counting
+};
+
+struct ReplaySummary {
+  std::uint64_t frames = 0;
+  std::uint64_t imu_samples = 0;
+  double duration_s = 0.0;    // data time from the first to the last measurement
+  double processing_s = 0.0;  // time spent inside the pipeline (excludes reading and decoding)
+  std::uint64_t heap_allocs_steady_state = 0;
+};
+
+class ReplayPipeline final : public MeasurementSink {
+ public:
+  ReplayPipeline(const AppConfig& config, const ReplayPipelineOptions& options);
+  ~ReplayPipeline() override;
+
+  void on_imu(const ImuSample& sample) override;
+  void on_stereo(const StereoFrame& frame) override;
+
+  std::uint64_t frames() const { return summary_.frames; }
+  bool has_estimator() const { return false; }
+  const StageTimes& stage_times() const { return *times_; }
+  ReplaySummary summary() const;
+
+  // Adds the pipeline's keys to stats.json (features, memory, imu, drops, init, modes).
+  void write_stats(JsonWriter& w) const;
+  void print_summary(std::ostream& out) const;
+
+ private:
+  void note_time(std::int64_t t_ns);
+
+  AppConfig config_;
+  ReplayPipelineOptions options_;
+  StageTimes* times_;  // large fixed windows: allocated once here, never per frame
+  ReplaySummary summary_;
+  std::int64_t first_t_ns_ = -1;
+  std::int64_t last_t_ns_ = -1;
+  std::int64_t last_imu_t_ns_ = -1;
+  std::uint64_t out_of_order_imu_ = 0;
+};
+
+}  // namespace ums::cli
