@@ -73,7 +73,20 @@ YamlFile::YamlFile(const std::string& path) : path_(path) {
   if (!storage_.root().isMap()) throw std::runtime_error(path + ": expected a YAML map of keys");
 }
 
-bool YamlFile::has(const std::string& key) const { return !storage_[key].empty(); }
+namespace {
+
+// "a.b" looks up key b inside map a (nested maps of camodocal files).
+cv::FileNode lookup(const cv::FileStorage& storage, const std::string& key) {
+  const std::size_t dot = key.find('.');
+  if (dot == std::string::npos) return storage[key];
+  const cv::FileNode parent = storage[key.substr(0, dot)];
+  if (!parent.isMap()) return cv::FileNode();
+  return parent[key.substr(dot + 1)];
+}
+
+}  // namespace
+
+bool YamlFile::has(const std::string& key) const { return !lookup(storage_, key).empty(); }
 
 std::vector<std::string> YamlFile::keys() const { return storage_.root().keys(); }
 
@@ -81,10 +94,10 @@ void YamlFile::fail(const std::string& key, const std::string& problem) const {
   throw std::runtime_error(path_ + ": key '" + key + "': " + problem);
 }
 
-std::string YamlFile::describe(const std::string& key) const { return describe_node(storage_[key]); }
+std::string YamlFile::describe(const std::string& key) const { return describe_node(lookup(storage_, key)); }
 
 cv::FileNode YamlFile::node(const std::string& key) const {
-  cv::FileNode n = storage_[key];
+  cv::FileNode n = lookup(storage_, key);
   if (n.empty()) fail(key, "missing");
   return n;
 }

@@ -22,6 +22,8 @@ class YamlFile {
   explicit YamlFile(const std::string& path);
 
   const std::string& path() const { return path_; }
+  // Keys may name a value inside a top-level map as "map.key" (camodocal's
+  // projection_parameters.fx).
   bool has(const std::string& key) const;
   std::vector<std::string> keys() const;  // top-level keys in file order
 

@@ -1,0 +1,50 @@
+#pragma once
+// The program's configuration: the rig calibration plus the tuning keys, as a plain struct.
+// Read from an OpenCV FileStorage YAML file ("%YAML:1.0", the format VINS-Fusion uses); the
+// VINS-Fusion stereo-IMU keys are accepted where they mean the same thing, so an existing
+// VINS-Fusion config (with its camodocal camN_calib files) works unchanged. Without a config the
+// dataset's sensor.yaml calibration and the defaults below are used (config_from_calibration).
+//
+// Tuning keys, calibration and compile-time capacities are kept apart: the keys choose values up
+// to the capacities of core/common/capacity.hpp, never beyond. docs/replay-and-config.md has the
+// key table.
+
+#include <string>
+#include <vector>
+
+#include "core/common/calibration.hpp"
+
+namespace ums {
+
+struct AppConfig {
+  RigCalibration calibration;  // cameras, IMU noise, gravity (g_norm) and td
+
+  // Front end
+  int max_cnt = 200;                    // features per frame, 3D + 2D-left + 2D-right (VINS max_cnt)
+  double min_dist_px = 25.0;            // px, minimum distance between features (VINS min_dist)
+  double f_threshold_px = 1.0;          // px, epipolar RANSAC inlier threshold (VINS F_threshold)
+  // Keyframes
+  double keyframe_parallax_px = 10.0;   // px at a 460 px focal length (VINS keyframe_parallax)
+  // Back end
+  double max_solver_time_s = 0.04;      // s, wall-time bound of one window solve (VINS max_solver_time)
+  int max_num_iterations = 8;           // solver iterations per window solve (VINS max_num_iterations)
+  bool estimate_extrinsic = false;      // refine T_b_c around the given values (VINS estimate_extrinsic 1)
+  bool estimate_td = false;             // estimate the camera-IMU time offset (VINS estimate_td)
+
+  std::string source;                   // where it came from: the config path, or "sensor.yaml"
+
+  // Throws std::invalid_argument "AppConfig.<field> = <value>: allowed <range>".
+  void validate() const;
+};
+
+// Defaults plus the given calibration (the dataset's sensor.yaml files).
+AppConfig config_from_calibration(const RigCalibration& calibration);
+
+// Reads path over config_from_calibration(defaults). Keys absent from the file keep the
+// defaults' values. Unknown keys add "<file>: unknown key '<k>' ignored" to *warnings (may be
+// null); invalid values throw std::runtime_error "<file>: key '<k>' = <value>: allowed <range>";
+// unreadable files and camN_calib files throw naming the file.
+AppConfig load_config(const std::string& path, const RigCalibration& defaults,
+                      std::vector<std::string>* warnings);
+
+}  // namespace ums
