@@ -159,20 +159,20 @@ TEST_CASE("EuRoC writer round trip: timestamps, calibration, IMU values and pixe
 TEST_CASE("EuRoC writer copies the real micro sequence through the sink interface", "[euroc][writer][real]") {
   EurocReader reader;
   ums::hal::EurocReaderOptions options;
-  options.duration_s = 0.2;  // 5 pairs, enough to prove the copy
+  options.duration_s = 0.06;  // 2 pairs, enough to prove the copy (PNG encoding is slow under qemu)
   reader.open(ums::test::euroc_micro_dir(), options);
   const std::string dir = ums::test::make_temp_dir("euroc_writer_copy");
   ums::hal::EurocWriter writer;
   writer.open(dir, reader.calibration());
   REQUIRE(reader.push_all(writer) == ums::Status::kOk);
   writer.close();
-  CHECK(writer.frames_written() == 5);
-  CHECK(writer.imu_written() == 41);
+  CHECK(writer.frames_written() == 2);
+  CHECK(writer.imu_written() == 11);  // t0 .. t0 + 50 ms at 200 Hz
 
   EurocReader copy;
   copy.open(dir);
-  CHECK(copy.summary().cam0_rows == 5);
-  CHECK(copy.summary().imu_rows == 41);
+  CHECK(copy.summary().cam0_rows == 2);
+  CHECK(copy.summary().imu_rows == 11);
   CHECK(copy.summary().cam0_first_t_ns == 1403715273262142976);
   CHECK(copy.calibration().cam[0].fx == 458.654);
   CHECK(copy.calibration().cam[1].T_b_c.translation().y() == 0.0453689425024);
