@@ -129,11 +129,12 @@ struct ImuStream {
 }  // namespace
 
 void EurocReaderOptions::validate() const {
-  if (!std::isfinite(start_s) || start_s < 0.0) {
-    throw std::invalid_argument("EurocReaderOptions.start_s must be >= 0 s, got " + std::to_string(start_s));
+  // Bounded so that start + duration in ns cannot overflow int64.
+  if (!std::isfinite(start_s) || start_s < 0.0 || start_s > 1e7) {
+    throw std::invalid_argument("EurocReaderOptions.start_s must be in 0..1e7 s, got " + std::to_string(start_s));
   }
-  if (!std::isfinite(duration_s) || duration_s < 0.0) {
-    throw std::invalid_argument("EurocReaderOptions.duration_s must be >= 0 s (0 = to the end), got " +
+  if (!std::isfinite(duration_s) || duration_s < 0.0 || duration_s > 1e7) {
+    throw std::invalid_argument("EurocReaderOptions.duration_s must be in 0..1e7 s (0 = to the end), got " +
                                 std::to_string(duration_s));
   }
   if (!std::isfinite(imu_lead_s) || imu_lead_s < 0.0 || imu_lead_s > 10.0) {
@@ -174,6 +175,7 @@ struct EurocReader::Impl {
   char data_dir[2][capacity::kMaxPathLength] = {};  // "<mav0>/camN/data/"
   char path[capacity::kMaxPathLength] = {};
 
+  bool opened = false;  // open() completed
   Status status = Status::kOk;
   char error[capacity::kMaxPathLength + 512] = {};
   char image_error[capacity::kMaxPathLength + 512] = {};
@@ -290,6 +292,7 @@ EurocReader::~EurocReader() = default;
 void EurocReader::open(const std::string& dataset_dir, const EurocReaderOptions& options) {
   options.validate();
   Impl& m = *impl_;
+  m.opened = false;
   m.options = options;
 
   if (!is_dir(dataset_dir)) throw std::runtime_error(dataset_dir + ": no such folder");
@@ -397,10 +400,12 @@ void EurocReader::open(const std::string& dataset_dir, const EurocReaderOptions&
   if (m.status != Status::kOk) throw std::runtime_error(m.error);
   m.rewind_streams();
   if (m.status != Status::kOk) throw std::runtime_error(m.error);
+  m.opened = true;
 }
 
 EurocReader::Event EurocReader::next(ImuSample* imu, StereoFrame* frame) {
   Impl& m = *impl_;
+  if (!m.opened) return Event::kEnd;
   for (;;) {
     if (m.status != Status::kOk) return Event::kEnd;
     if (!m.pair_ready && !m.frames_done) {

@@ -77,7 +77,8 @@ class EurocReader {
 
   // Next measurement in time order; fills *imu or *frame. A frame's image views stay valid until
   // the next call. Returns kEnd at the end, and also after a read error while streaming (files
-  // changed since open): then status() is kIoError and error() says where.
+  // changed since open): then status() is kIoError and error() says where. kEnd before a
+  // successful open().
   Event next(ImuSample* imu, StereoFrame* frame);
 
   // Streams everything (from the current position) into sink; kOk at the end, or status().

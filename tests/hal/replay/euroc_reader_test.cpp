@@ -272,6 +272,13 @@ TEST_CASE("EuRoC reader options are validated", "[euroc]") {
 TEST_CASE("EuRoC reader: missing folders and files are named", "[euroc][malformed]") {
   const std::string dir = make_dataset("euroc_missing");
   CHECK(open_error(dir).empty());
+  {
+    EurocReader reader;  // a failed open leaves nothing to stream
+    CHECK_THROWS(reader.open(dir + "/nope"));
+    ImuSample imu;
+    StereoFrame frame;
+    CHECK(reader.next(&imu, &frame) == EurocReader::Event::kEnd);
+  }
   CHECK_THAT(open_error(dir + "/nope"), Catch::Contains("/nope: no such folder"));
   const std::string empty = ums::test::make_temp_dir("euroc_missing_empty");
   CHECK_THAT(open_error(empty), Catch::Contains("no mav0/ folder"));
