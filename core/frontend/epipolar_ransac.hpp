@@ -1,10 +1,11 @@
 #pragma once
 // Outlier rejection on the epipolar constraint between two views of one camera (consecutive
 // frames): x1^T E x0 = 0 with E = [t]x R on bearing vectors (any camera model, no fundamental
-// matrix of distorted pixels). Hypotheses come from the linear 8-point solution (smallest
-// eigenvector of the 9x9 normal matrix, projected onto the essential manifold: singular values
-// (1, 1, 0)); a fixed number of iterations with a seeded generator makes the result repeatable
-// on every platform; the best model is refitted on its inliers once. Points are scored by the
+// matrix of distorted pixels). Hypotheses come from the normalised linear 8-point solution
+// (Hartley normalisation of the z = 1 points, smallest eigenvector of the 9x9 normal matrix,
+// projected onto the essential manifold: singular values (1, 1, 0)); a fixed upper bound of
+// iterations (adaptive below it) with a seeded generator makes the result repeatable on every platform; each new
+// best model is refitted on its inliers (LO-RANSAC, bounded rounds). Points are scored by the
 // Sampson distance in the z = 1 plane, converted to pixels with the camera's focal length.
 // Pure rotation or no motion (E -> skew-symmetric family) keeps every consistent match, which is
 // what a still camera needs.
@@ -18,7 +19,8 @@
 namespace ums {
 
 struct RansacOptions {
-  int iterations = 64;          // hypotheses, fixed (no adaptive early exit: bounded time)
+  int iterations = 200;         // hypotheses, upper bound (bounded time)
+  float confidence = 0.99f;     // stop earlier once an all-inlier draw is this likely
   float threshold_px = 1.0f;    // px, Sampson distance (VINS-Fusion F_THRESHOLD = 1 px)
   std::uint32_t seed = 0x2545F491u;  // generator seed; the front end reseeds per frame
 
@@ -47,7 +49,7 @@ Status ransac_essential(const Eigen::Vector3f* b0, const Eigen::Vector3f* b1, in
                         const RansacOptions& options, Xorshift32* rng, std::uint8_t* inlier, int* n_inliers,
                         Eigen::Matrix3d* E_1_0 = nullptr);
 
-// Linear 8-point (or more) essential matrix on the given matches (indices idx[0..m)). False when
+// Normalised linear 8-point (or more) essential matrix on the given matches (indices idx[0..m)). False when
 // the normal matrix is degenerate.
 bool essential_from_bearings(const Eigen::Vector3f* b0, const Eigen::Vector3f* b1, const int* idx, int m,
                              Eigen::Matrix3d* E_1_0);

@@ -1,0 +1,49 @@
+#include "core/frontend/image_pyramid.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+#include <catch2/catch.hpp>
+
+#include "profiling/alloc_counter.hpp"
+#include "tests/core/frontend/synthetic_images.hpp"
+
+TEST_CASE("pyramid levels halve the size (rounding up) and keep a constant image constant") {
+  ums::ImagePyramid pyr(752, 480, 4);
+  ums::test::GreyImage img(752, 480, 77);
+  REQUIRE(pyr.build(img.view()) == ums::Status::kOk);
+  const int w[4] = {752, 376, 188, 94}, h[4] = {480, 240, 120, 60};
+  for (int l = 0; l < 4; ++l) {
+    CHECK(pyr.level(l).width == w[l]);
+    CHECK(pyr.level(l).height == h[l]);
+    for (int y = 0; y < pyr.level(l).height; y += 7)
+      for (int x = 0; x < pyr.level(l).width; x += 5) REQUIRE(pyr.level(l).row(y)[x] == 77);
+  }
+  ums::ImagePyramid odd(101, 51, 3);
+  CHECK(odd.level(1).width == 51);
+  CHECK(odd.level(2).height == 13);
+}
+
+TEST_CASE("pyramid level 1 of a linear ramp samples the ramp at twice the coordinate") {
+  ums::test::GreyImage img(200, 100);
+  for (int y = 0; y < 100; ++y)
+    for (int x = 0; x < 200; ++x) img.at(x, y) = static_cast<std::uint8_t>(x);
+  ums::ImagePyramid pyr(200, 100, 2);
+  REQUIRE(pyr.build(img.view()) == ums::Status::kOk);
+  // Away from the borders the symmetric kernel keeps a linear ramp exact: value = 2x.
+  for (int x = 2; x < 98; ++x) CHECK(std::abs(pyr.level(1).row(20)[x] - 2 * x) <= 1);
+}
+
+TEST_CASE("pyramid rejects a wrong-size image and sizes beyond capacity; build allocates nothing") {
+  ums::ImagePyramid pyr(64, 48, 4);
+  ums::test::GreyImage wrong(65, 48);
+  CHECK(pyr.build(wrong.view()) == ums::Status::kInvalidInput);
+  CHECK_THROWS_AS(ums::ImagePyramid(100000, 10, 4), std::runtime_error);
+  CHECK_THROWS_AS(ums::ImagePyramid(64, 48, 9), std::runtime_error);
+  ums::test::GreyImage ok(64, 48, 3);
+  ums::AllocScope scope;
+  const ums::Status s = pyr.build(ok.view());
+  const std::uint64_t allocs = scope.allocations();
+  REQUIRE(s == ums::Status::kOk);
+  if (ums::alloc_counter_available()) CHECK(allocs == 0);
+}
