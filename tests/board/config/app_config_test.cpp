@@ -197,7 +197,7 @@ TEST_CASE("a VINS-Fusion stereo-IMU config is read with its camodocal files and 
   CHECK(c.calibration.cam[0].rate_hz == 20.0);
 }
 
-TEST_CASE("unknown keys warn with file and key; known VINS keys are silent", "[config]") {
+TEST_CASE("unknown keys warn with file and key, known VINS keys are silent", "[config]") {
   const std::string dir = ums::test::make_temp_dir("config_unknown");
   const std::string path = write_vins_config(dir, std::string(kVinsConfig) + "max_cnt_typo: 3\nuse_magic: 1\n");
   std::vector<std::string> warnings;
