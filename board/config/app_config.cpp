@@ -43,23 +43,23 @@ const NumericKey kNumericKeys[] = {
      [](AppConfig& c, double v) { c.estimate_extrinsic = v != 0.0; }},
     {"estimate_td", "estimate_td", 0, 1, true, "", "", [](const AppConfig& c) { return c.estimate_td ? 1.0 : 0.0; },
      [](AppConfig& c, double v) { c.estimate_td = v != 0.0; }},
-    {"td", "calibration.td_s", -0.5, 0.5, false, "s", "", [](const AppConfig& c) { return c.calibration.td_s; },
-     [](AppConfig& c, double v) { c.calibration.td_s = v; }},
-    {"acc_n", "calibration.imu.accel_noise_density", 1e-6, 10, false, "m/s^2/sqrt(Hz)", "",
-     [](const AppConfig& c) { return c.calibration.imu.accel_noise_density; },
-     [](AppConfig& c, double v) { c.calibration.imu.accel_noise_density = v; }},
-    {"gyr_n", "calibration.imu.gyro_noise_density", 1e-7, 10, false, "rad/s/sqrt(Hz)", "",
-     [](const AppConfig& c) { return c.calibration.imu.gyro_noise_density; },
-     [](AppConfig& c, double v) { c.calibration.imu.gyro_noise_density = v; }},
-    {"acc_w", "calibration.imu.accel_random_walk", 1e-8, 10, false, "m/s^3/sqrt(Hz)", "",
-     [](const AppConfig& c) { return c.calibration.imu.accel_random_walk; },
-     [](AppConfig& c, double v) { c.calibration.imu.accel_random_walk = v; }},
-    {"gyr_w", "calibration.imu.gyro_random_walk", 1e-9, 10, false, "rad/s^2/sqrt(Hz)", "",
-     [](const AppConfig& c) { return c.calibration.imu.gyro_random_walk; },
-     [](AppConfig& c, double v) { c.calibration.imu.gyro_random_walk = v; }},
-    {"g_norm", "calibration.imu.gravity_m_s2", 9.0, 10.5, false, "m/s^2", "",
-     [](const AppConfig& c) { return c.calibration.imu.gravity_m_s2; },
-     [](AppConfig& c, double v) { c.calibration.imu.gravity_m_s2 = v; }},
+    {"td", "rig.td_s", -0.5, 0.5, false, "s", "", [](const AppConfig& c) { return c.rig.td_s; },
+     [](AppConfig& c, double v) { c.rig.td_s = v; }},
+    {"acc_n", "rig.imu.accel_noise_density", 1e-6, 10, false, "m/s^2/sqrt(Hz)", "",
+     [](const AppConfig& c) { return c.rig.imu.accel_noise_density; },
+     [](AppConfig& c, double v) { c.rig.imu.accel_noise_density = v; }},
+    {"gyr_n", "rig.imu.gyro_noise_density", 1e-7, 10, false, "rad/s/sqrt(Hz)", "",
+     [](const AppConfig& c) { return c.rig.imu.gyro_noise_density; },
+     [](AppConfig& c, double v) { c.rig.imu.gyro_noise_density = v; }},
+    {"acc_w", "rig.imu.accel_random_walk", 1e-8, 10, false, "m/s^3/sqrt(Hz)", "",
+     [](const AppConfig& c) { return c.rig.imu.accel_random_walk; },
+     [](AppConfig& c, double v) { c.rig.imu.accel_random_walk = v; }},
+    {"gyr_w", "rig.imu.gyro_random_walk", 1e-9, 10, false, "rad/s^2/sqrt(Hz)", "",
+     [](const AppConfig& c) { return c.rig.imu.gyro_random_walk; },
+     [](AppConfig& c, double v) { c.rig.imu.gyro_random_walk = v; }},
+    {"g_norm", "rig.imu.gravity_m_s2", 9.0, 10.5, false, "m/s^2", "",
+     [](const AppConfig& c) { return c.rig.imu.gravity_m_s2; },
+     [](AppConfig& c, double v) { c.rig.imu.gravity_m_s2 = v; }},
 };
 
 // Integer keys that only state the rig's shape: VINS-Fusion's stereo-IMU mode is the only one.
@@ -185,16 +185,16 @@ void AppConfig::validate() const {
     }
   }
   for (int side = 0; side < 2; ++side) {
-    const CameraCalibration& cam = calibration.cam[side];
+    const CameraCalibration& cam = rig.cam[side];
     if (cam.width < 1 || cam.width > capacity::kMaxImageWidth || cam.height < 1 ||
         cam.height > capacity::kMaxImageHeight) {
-      throw std::invalid_argument("AppConfig.calibration.cam[" + std::to_string(side) + "] size " +
+      throw std::invalid_argument("AppConfig.rig.cam[" + std::to_string(side) + "] size " +
                                   std::to_string(cam.width) + "x" + std::to_string(cam.height) +
                                   ": allowed 1.." + std::to_string(capacity::kMaxImageWidth) + " x 1.." +
                                   std::to_string(capacity::kMaxImageHeight) + " px");
     }
     if (!(cam.fx > 0.0 && cam.fy > 0.0)) {
-      throw std::invalid_argument("AppConfig.calibration.cam[" + std::to_string(side) + "] focal length " +
+      throw std::invalid_argument("AppConfig.rig.cam[" + std::to_string(side) + "] focal length " +
                                   format_value(cam.fx) + ", " + format_value(cam.fy) + ": must be > 0 px");
     }
   }
@@ -202,7 +202,7 @@ void AppConfig::validate() const {
 
 AppConfig config_from_calibration(const RigCalibration& calibration) {
   AppConfig config;
-  config.calibration = calibration;
+  config.rig = calibration;
   config.source = "sensor.yaml";
   return config;
 }
@@ -239,7 +239,7 @@ AppConfig load_config(const std::string& path, const RigCalibration& defaults,
     std::string file = yaml.text(key);
     if (file.empty()) yaml.fail(key, "empty file name");
     if (file[0] != '/') file = folder_of(path) + "/" + file;
-    read_camodocal(file, &config.calibration.cam[side], warnings);
+    read_camodocal(file, &config.rig.cam[side], warnings);
   }
   const char* size_keys[2] = {"image_width", "image_height"};
   for (int i = 0; i < 2; ++i) {
@@ -258,7 +258,7 @@ AppConfig load_config(const std::string& path, const RigCalibration& defaults,
                          (i == 0 ? "capacity::kMaxImageWidth" : "capacity::kMaxImageHeight") + ")");
     }
     for (int side = 0; side < 2; ++side) {
-      int& size = i == 0 ? config.calibration.cam[side].width : config.calibration.cam[side].height;
+      int& size = i == 0 ? config.rig.cam[side].width : config.rig.cam[side].height;
       const bool from_calib_file = yaml.has(side == 0 ? "cam0_calib" : "cam1_calib");
       if (from_calib_file && size != value) {
         yaml.fail(key, "value " + std::to_string(value) + " differs from cam" + std::to_string(side) +
@@ -269,7 +269,7 @@ AppConfig load_config(const std::string& path, const RigCalibration& defaults,
   }
   for (int side = 0; side < 2; ++side) {
     const std::string key = side == 0 ? "body_T_cam0" : "body_T_cam1";
-    if (yaml.has(key)) config.calibration.cam[side].T_b_c = yaml.transform(key);
+    if (yaml.has(key)) config.rig.cam[side].T_b_c = yaml.transform(key);
   }
 
   for (const NumericKey& k : kNumericKeys) {

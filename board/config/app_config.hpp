@@ -17,7 +17,7 @@
 namespace ums {
 
 struct AppConfig {
-  RigCalibration calibration;  // cameras, IMU noise, gravity (g_norm) and td
+  RigCalibration rig;  // cameras, IMU noise, gravity (g_norm) and td
 
   // Front end
   int max_cnt = 200;                    // features per frame, 3D + 2D-left + 2D-right (VINS max_cnt)

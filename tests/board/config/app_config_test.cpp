@@ -154,8 +154,8 @@ std::string replace(std::string text, const std::string& from, const std::string
 TEST_CASE("config from the dataset's calibration keeps it and the defaults", "[config]") {
   const ums::RigCalibration rig = micro_calibration();
   const ums::AppConfig config = ums::config_from_calibration(rig);
-  CHECK(config.calibration.cam[0].fx == 458.654);
-  CHECK(config.calibration.imu.accel_noise_density == 2.0e-3);
+  CHECK(config.rig.cam[0].fx == 458.654);
+  CHECK(config.rig.imu.accel_noise_density == 2.0e-3);
   CHECK(config.max_cnt == 200);
   CHECK(config.min_dist_px == 25.0);
   CHECK(config.f_threshold_px == 1.0);
@@ -178,23 +178,23 @@ TEST_CASE("a VINS-Fusion stereo-IMU config is read with its camodocal files and 
   CHECK(c.max_num_iterations == 8);
   CHECK(c.estimate_extrinsic);
   CHECK_FALSE(c.estimate_td);
-  CHECK(c.calibration.td_s == 0.0);
-  CHECK(c.calibration.imu.accel_noise_density == 0.1);
-  CHECK(c.calibration.imu.gyro_noise_density == 0.01);
-  CHECK(c.calibration.imu.accel_random_walk == 0.001);
-  CHECK(c.calibration.imu.gyro_random_walk == 0.0001);
-  CHECK(c.calibration.imu.gravity_m_s2 == 9.81007);
+  CHECK(c.rig.td_s == 0.0);
+  CHECK(c.rig.imu.accel_noise_density == 0.1);
+  CHECK(c.rig.imu.gyro_noise_density == 0.01);
+  CHECK(c.rig.imu.accel_random_walk == 0.001);
+  CHECK(c.rig.imu.gyro_random_walk == 0.0001);
+  CHECK(c.rig.imu.gravity_m_s2 == 9.81007);
   // Intrinsics from cam0_pinhole.yaml replace sensor.yaml's (458.654 -> 461.6).
-  CHECK(c.calibration.cam[0].fx == 461.6);
-  CHECK(c.calibration.cam[0].cy == 248.1);
-  CHECK(c.calibration.cam[0].distortion[0] == -0.2917);
-  CHECK(c.calibration.cam[0].distortion[3] == -1.578e-04);
-  CHECK(c.calibration.cam[0].model == ums::CameraModel::kPinholeRadTan);
-  CHECK(c.calibration.cam[1].width == 752);
-  CHECK(c.calibration.cam[0].T_b_c.translation().x() == -0.0216401454975);
-  CHECK(c.calibration.cam[1].T_b_c.translation().y() == 0.0453689425024);
+  CHECK(c.rig.cam[0].fx == 461.6);
+  CHECK(c.rig.cam[0].cy == 248.1);
+  CHECK(c.rig.cam[0].distortion[0] == -0.2917);
+  CHECK(c.rig.cam[0].distortion[3] == -1.578e-04);
+  CHECK(c.rig.cam[0].model == ums::CameraModel::kPinholeRadTan);
+  CHECK(c.rig.cam[1].width == 752);
+  CHECK(c.rig.cam[0].T_b_c.translation().x() == -0.0216401454975);
+  CHECK(c.rig.cam[1].T_b_c.translation().y() == 0.0453689425024);
   // Keys the file does not set keep the dataset's values.
-  CHECK(c.calibration.cam[0].rate_hz == 20.0);
+  CHECK(c.rig.cam[0].rate_hz == 20.0);
 }
 
 TEST_CASE("unknown keys warn with file and key, known VINS keys are silent", "[config]") {
@@ -263,10 +263,10 @@ TEST_CASE("camodocal files: KANNALA_BRANDT maps to equidistant, other models and
              "projection_parameters:\n   k2: -0.01\n   k3: 0.02\n   k4: -0.003\n   k5: 0.0004\n   mu: 380.1\n"
              "   mv: 380.2\n   u0: 376.0\n   v0: 240.5\n");
   const ums::AppConfig c = ums::load_config(path, micro_calibration(), nullptr);
-  CHECK(c.calibration.cam[1].model == ums::CameraModel::kPinholeEquidistant);
-  CHECK(c.calibration.cam[1].fx == 380.1);
-  CHECK(c.calibration.cam[1].cy == 240.5);
-  CHECK(c.calibration.cam[1].distortion == std::array<double, 4>{-0.01, 0.02, -0.003, 0.0004});
+  CHECK(c.rig.cam[1].model == ums::CameraModel::kPinholeEquidistant);
+  CHECK(c.rig.cam[1].fx == 380.1);
+  CHECK(c.rig.cam[1].cy == 240.5);
+  CHECK(c.rig.cam[1].distortion == std::array<double, 4>{-0.01, 0.02, -0.003, 0.0004});
 
   write_text(dir + "/cam1_pinhole.yaml", "%YAML:1.0\nmodel_type: MEI\nimage_width: 752\nimage_height: 480\n");
   CHECK_THAT(load_error(path), Catch::Contains("cam1_pinhole.yaml: key 'model_type': 'MEI' is not supported"));
@@ -281,8 +281,8 @@ TEST_CASE("config without %YAML directive, and a missing config file", "[config]
   write_text(dir + "/plain.yaml", "max_cnt: 120\ng_norm: 9.8\n");
   const ums::AppConfig c = ums::load_config(dir + "/plain.yaml", micro_calibration(), nullptr);
   CHECK(c.max_cnt == 120);
-  CHECK(c.calibration.imu.gravity_m_s2 == 9.8);
-  CHECK(c.calibration.cam[0].fx == 458.654);  // untouched
+  CHECK(c.rig.imu.gravity_m_s2 == 9.8);
+  CHECK(c.rig.cam[0].fx == 458.654);  // untouched
   CHECK_THAT(load_error(dir + "/none.yaml"), Catch::Contains("none.yaml: cannot open"));
 }
 
@@ -291,9 +291,9 @@ TEST_CASE("AppConfig::validate names the field, value and range", "[config]") {
   c.max_cnt = 401;
   CHECK_THROWS_WITH(c.validate(), Catch::Contains("AppConfig.max_cnt = 401: allowed 1..400"));
   c = ums::config_from_calibration(micro_calibration());
-  c.calibration.imu.gravity_m_s2 = 0;
-  CHECK_THROWS_WITH(c.validate(), Catch::Contains("AppConfig.calibration.imu.gravity_m_s2 = 0: allowed 9..10.5 m/s^2"));
+  c.rig.imu.gravity_m_s2 = 0;
+  CHECK_THROWS_WITH(c.validate(), Catch::Contains("AppConfig.rig.imu.gravity_m_s2 = 0: allowed 9..10.5 m/s^2"));
   c = ums::config_from_calibration(micro_calibration());
-  c.calibration.cam[1].width = 0;
-  CHECK_THROWS_WITH(c.validate(), Catch::Contains("AppConfig.calibration.cam[1] size 0x480"));
+  c.rig.cam[1].width = 0;
+  CHECK_THROWS_WITH(c.validate(), Catch::Contains("AppConfig.rig.cam[1] size 0x480"));
 }
