@@ -1,15 +1,44 @@
 #include "board/host/replay_pipeline.hpp"
 
 #include <chrono>
+#include <cmath>
 
+#include "core/math/so3.hpp"
 #include "profiling/alloc_counter.hpp"
 
 namespace ums::cli {
 
-ReplayPipeline::ReplayPipeline(const AppConfig& config, const ReplayPipelineOptions& options)
-    : config_(config), options_(options), times_(new StageTimes()) {}
+namespace {
 
-ReplayPipeline::~ReplayPipeline() { delete times_; }
+FrontendOptions frontend_options_from(const AppConfig& config) {
+  FrontendOptions o;
+  o.max_cnt = config.max_cnt;
+  o.detector.min_distance_px = static_cast<float>(config.min_dist_px);
+  o.ransac.threshold_px = static_cast<float>(config.f_threshold_px);
+  return o;
+}
+
+KeyframeOptions keyframe_options_from(const AppConfig& config) {
+  KeyframeOptions o;
+  o.min_parallax_px = static_cast<float>(config.keyframe_parallax_px);
+  return o;
+}
+
+}  // namespace
+
+ReplayPipeline::ReplayPipeline(const AppConfig& config, const ReplayPipelineOptions& options)
+    : config_(config),
+      options_(options),
+      times_(new StageTimes()),
+      frontend_(frontend_options_from(config), config.rig),
+      keyframes_(keyframe_options_from(config)),
+      features_(new FrameFeatures()),
+      q_b_c0_(config.rig.cam[0].T_b_c.rotation()) {}
+
+ReplayPipeline::~ReplayPipeline() {
+  delete features_;
+  delete times_;
+}
 
 void ReplayPipeline::note_time(std::int64_t t_ns) {
   if (first_t_ns_ < 0) first_t_ns_ = t_ns;
@@ -24,6 +53,14 @@ void ReplayPipeline::on_imu(const ImuSample& sample) {
   if (sample.t_ns <= last_imu_t_ns_) {
     ++out_of_order_imu_;  // a source bug: count, never pass on
   } else {
+    ImuSample clipped;
+    if (saturation_.apply(sample, &clipped)) ++summary_.saturated_samples;
+    if (last_imu_t_ns_ >= 0 && summary_.frames > 0) {
+      // Rotation hint only: raw gyro (bias of a few mrad/s moves KLT starts by < 0.1 px at 20 Hz).
+      const double dt_s = static_cast<double>(sample.t_ns - last_imu_t_ns_) * 1e-9;
+      q_bprev_bcurr_ = (q_bprev_bcurr_ * so3::exp_quat(clipped.gyro_rad_s * dt_s)).normalized();
+      have_imu_since_frame_ = true;
+    }
     last_imu_t_ns_ = sample.t_ns;
     ++summary_.imu_samples;
   }
@@ -40,27 +77,84 @@ void ReplayPipeline::on_stereo(const StereoFrame& frame) {
     const auto start = std::chrono::steady_clock::now();
     note_time(frame.t_ns);
     ++summary_.frames;
+    {
+      ScopedStageTimer t(times_, Stage::kFrontend);
+      // cam0 rotation between frames from the body rotation: R_c0prev_c0curr = R_c0_b R R_b_c0.
+      const Eigen::Quaterniond q_c0prev_c0curr = q_b_c0_.conjugate() * q_bprev_bcurr_ * q_b_c0_;
+      const Status st = frontend_.process(frame, have_imu_since_frame_ ? &q_c0prev_c0curr : nullptr,
+                                          features_);
+      q_bprev_bcurr_.setIdentity();
+      have_imu_since_frame_ = false;
+      if (st == Status::kOk) {
+        accumulate_features(*features_);
+        // No estimator yet: no 2D feature has depth from it.
+        if (keyframes_.update(*features_, 0).is_keyframe) ++summary_.keyframes;
+      } else {
+        ++summary_.frontend_rejected_frames;
+      }
+    }
     summary_.processing_s +=
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   }
   if (steady) summary_.heap_allocs_steady_state += allocs.allocations();
 }
 
+void ReplayPipeline::accumulate_features(const FrameFeatures& f) {
+  ++frontend_frames_;
+  sum_3d_ += f.n_3d;
+  sum_2d_left_ += f.n_2d_left;
+  sum_2d_right_ += f.n_2d_right;
+  for (const FeatureObservation& o : f.features) sum_track_length_ += o.track_length;
+  observations_ += static_cast<double>(f.features.size());
+  const double rms = f.stats.stereo_epipolar_rms_px;
+  sum_sq_epipolar_px_ += rms * rms * f.n_3d;
+  epipolar_matches_ += f.n_3d;
+}
+
 ReplaySummary ReplayPipeline::summary() const {
   ReplaySummary s = summary_;
   s.duration_s = first_t_ns_ < 0 ? 0.0 : static_cast<double>(last_t_ns_ - first_t_ns_) * 1e-9;
+  if (frontend_frames_ > 0) {
+    const double n = static_cast<double>(frontend_frames_);
+    s.mean_3d = sum_3d_ / n;
+    s.mean_2d_left = sum_2d_left_ / n;
+    s.mean_2d_right = sum_2d_right_ / n;
+  }
+  if (observations_ > 0) s.mean_track_length = sum_track_length_ / observations_;
+  if (epipolar_matches_ > 0) s.stereo_epipolar_rms_px = std::sqrt(sum_sq_epipolar_px_ / epipolar_matches_);
   return s;
 }
 
 void ReplayPipeline::write_stats(JsonWriter& w) const {
+  const ReplaySummary s = summary();
+  w.begin_object("features")
+      .value("mean_3d", s.mean_3d, 5)
+      .value("mean_2d_left", s.mean_2d_left, 5)
+      .value("mean_2d_right", s.mean_2d_right, 5)
+      .value("mean_track_length", s.mean_track_length, 5)
+      .value("stereo_epipolar_rms_px", s.stereo_epipolar_rms_px, 4)
+      .value("keyframes", s.keyframes)
+      .end_object();
+  w.begin_object("imu").value("saturated_samples", s.saturated_samples).end_object();
   w.begin_object("memory")
       .value("heap_allocs_steady_state", summary_.heap_allocs_steady_state)
       .value("alloc_counter", alloc_counter_available())
       .end_object();
-  w.begin_object("drops").value("imu_out_of_order", out_of_order_imu_).end_object();
+  w.begin_object("drops")
+      .value("imu_out_of_order", out_of_order_imu_)
+      .value("frontend_rejected_frames", s.frontend_rejected_frames)
+      .end_object();
 }
 
 void ReplayPipeline::print_summary(std::ostream& out) const {
+  const ReplaySummary s = summary();
+  out << "replay: features per frame: " << s.mean_3d << " 3D, " << s.mean_2d_left << " 2D-left, "
+      << s.mean_2d_right << " 2D-right; mean track length " << s.mean_track_length
+      << " frames; stereo epipolar RMS " << s.stereo_epipolar_rms_px << " px; " << s.keyframes
+      << " keyframes\n";
+  if (s.saturated_samples > 0) {
+    out << "replay: saturation element clipped " << s.saturated_samples << " IMU samples\n";
+  }
   out << "replay: steady-state heap allocations in the pipeline: "
       << summary_.heap_allocs_steady_state << "\n";
 }

@@ -8,6 +8,10 @@
 
 #include "board/config/app_config.hpp"
 #include "core/common/measurement_sink.hpp"
+#include "core/frontend/frame_features.hpp"
+#include "core/frontend/frontend.hpp"
+#include "core/frontend/keyframe_selector.hpp"
+#include "core/imu/saturation.hpp"
 #include "profiling/json_writer.hpp"
 #include "profiling/stage_timer.hpp"
 
@@ -24,6 +28,15 @@ struct ReplaySummary {
   double duration_s = 0.0;    // data time from the first to the last measurement
   double processing_s = 0.0;  // time spent inside the pipeline (excludes reading and decoding)
   std::uint64_t heap_allocs_steady_state = 0;
+  // Front end, averaged over processed frames.
+  double mean_3d = 0.0;
+  double mean_2d_left = 0.0;
+  double mean_2d_right = 0.0;
+  double mean_track_length = 0.0;  // frames, per observation (as the front-end acceptance counts)
+  double stereo_epipolar_rms_px = 0.0;  // px, RMS over all accepted 3D matches of the run
+  std::uint64_t keyframes = 0;
+  std::uint64_t frontend_rejected_frames = 0;  // frames the front end refused (size mismatch, no left)
+  std::uint64_t saturated_samples = 0;         // IMU samples the saturation element clipped
 };
 
 class ReplayPipeline final : public MeasurementSink {
@@ -45,6 +58,7 @@ class ReplayPipeline final : public MeasurementSink {
 
  private:
   void note_time(std::int64_t t_ns);
+  void accumulate_features(const FrameFeatures& f);
 
   AppConfig config_;
   ReplayPipelineOptions options_;
@@ -54,6 +68,20 @@ class ReplayPipeline final : public MeasurementSink {
   std::int64_t last_t_ns_ = -1;
   std::int64_t last_imu_t_ns_ = -1;
   std::uint64_t out_of_order_imu_ = 0;
+
+  SaturationElement saturation_;
+  Frontend frontend_;
+  KeyframeSelector keyframes_;
+  FrameFeatures* features_;  // one frame's features, allocated once
+  // Gyro-integrated rotation of the body since the previous frame: the front end's KLT hint.
+  Eigen::Quaterniond q_bprev_bcurr_ = Eigen::Quaterniond::Identity();
+  Eigen::Quaterniond q_b_c0_ = Eigen::Quaterniond::Identity();
+  bool have_imu_since_frame_ = false;
+  // Running sums for the summary.
+  double sum_3d_ = 0.0, sum_2d_left_ = 0.0, sum_2d_right_ = 0.0;
+  double sum_track_length_ = 0.0, observations_ = 0.0;
+  double sum_sq_epipolar_px_ = 0.0, epipolar_matches_ = 0.0;
+  std::uint64_t frontend_frames_ = 0;
 };
 
 }  // namespace ums::cli
