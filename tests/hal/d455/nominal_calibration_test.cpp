@@ -3,6 +3,9 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <string>
+
+#include "hal/replay/yaml_file.hpp"
 
 using namespace ums::d455;
 
@@ -22,4 +25,26 @@ TEST_CASE("Nominal D455 calibration: 95 mm baseline along x, CAD lever arm, rect
   const ums::RigCalibration vga = d455_nominal_calibration(640, 480, 15.0, 200.0);
   CHECK(vga.cam[0].fx == Approx(388.780));
   CHECK_THROWS_AS(d455_nominal_calibration(1280, 720, 30.0, 200.0), std::invalid_argument);
+}
+
+TEST_CASE("board/d455/d455.yaml states the same nominal calibration as the code", "[d455][calib]") {
+  const ums::RigCalibration rig = d455_nominal_calibration(848, 480, 30.0, 400.0);
+  const std::string dir = std::string(UMS_SOURCE_DIR) + "/board/d455";
+  const ums::hal::YamlFile config(dir + "/d455.yaml");
+  CHECK(config.integer("num_of_cam") == 2);
+  CHECK(config.integer("image_width") == 848);
+  for (int side = 0; side < 2; ++side) {
+    const Eigen::Isometry3d T = config.transform(side == 0 ? "body_T_cam0" : "body_T_cam1");
+    CHECK((T.matrix() - rig.cam[side].T_b_c.matrix()).norm() < 1e-12);
+    const ums::hal::YamlFile cam(dir + "/" + config.text(side == 0 ? "cam0_calib" : "cam1_calib"));
+    CHECK(cam.text("model_type") == "PINHOLE");
+    CHECK(cam.number("projection_parameters.fx") == rig.cam[side].fx);
+    CHECK(cam.number("projection_parameters.cx") == rig.cam[side].cx);
+    CHECK(cam.number("projection_parameters.cy") == rig.cam[side].cy);
+    CHECK(cam.number("distortion_parameters.k1") == 0.0);
+  }
+  CHECK(config.number("acc_n") == rig.imu.accel_noise_density);
+  CHECK(config.number("gyr_n") == rig.imu.gyro_noise_density);
+  CHECK(config.number("acc_w") == Approx(rig.imu.accel_random_walk).epsilon(1e-12));
+  CHECK(config.number("gyr_w") == Approx(rig.imu.gyro_random_walk).epsilon(1e-12));
 }
