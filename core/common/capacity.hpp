@@ -39,6 +39,8 @@ inline constexpr std::size_t kD455MaxIioRecordBytes = 64; // one IIO scan record
 inline constexpr std::size_t kD455AccelHistory = 32;      // accel samples kept to bracket gyro stamps
 inline constexpr std::size_t kD455GyroPending = 64;       // gyro samples waiting for a later accel
 inline constexpr std::size_t kD455ImuOutRing = 256;       // fused samples waiting for the consumer
+inline constexpr std::size_t kThreadBridgeEvents = 1024;   // live app: events between two threads (2.5 s of 400 Hz IMU)
+inline constexpr std::size_t kThreadBridgeFrameSlots = 4;  // live app: stereo frames in flight between two threads
 }  // namespace ums::capacity
 
 // Front end (issue 6): corner candidates kept per detect() call (the strongest NMS maxima survive
