@@ -91,18 +91,22 @@ bool ImuResidual::evaluate(const double* pose_i, const double* speedbias_i, cons
   const Vector3d phi_bg = pre_->d_gamma_d_bg() * (si.bg - pre_->linearization_bg());
   const Matrix3d I3 = Matrix3d::Identity();
 
+  // Whitening U J exploits the zero row blocks of each raw Jacobian.
+  const Preintegration::Matrix15& U = sqrt_information_;
   if (d_r_d_pose_i) {
-    Eigen::Matrix<double, 15, 6> J = Eigen::Matrix<double, 15, 6>::Zero();
+    // Rows alpha, theta, beta only.
+    Eigen::Matrix<double, 9, 6> J = Eigen::Matrix<double, 9, 6>::Zero();
     J.block<3, 3>(kP, 0) = -Ri_T;
     J.block<3, 3>(kP, 3) = so3::hat(Ri_T * x_p);
     // e(dtheta) = gamma~^-1 Exp(-dtheta) qij  ->  d(2 vec e) = -[L(gamma~^-1) R(qij)]_vec,vec
     const Eigen::Matrix4d LR = quat::left(gamma.conjugate()) * quat::right(qij);
     J.block<3, 3>(kTh, 3) = -sign * LR.block<3, 3>(1, 1);
     J.block<3, 3>(kV, 3) = so3::hat(Ri_T * x_v);
-    Eigen::Map<JacobianPose>(d_r_d_pose_i).noalias() = sqrt_information_ * J;
+    Eigen::Map<JacobianPose>(d_r_d_pose_i).noalias() = U.leftCols<9>() * J;
   }
   if (d_r_d_speedbias_i) {
-    Eigen::Matrix<double, 15, 9> J = Eigen::Matrix<double, 15, 9>::Zero();
+    // Rows alpha, theta, beta here; the bias rows are -I, added column-wise below.
+    Eigen::Matrix<double, 9, 9> J = Eigen::Matrix<double, 9, 9>::Zero();
     J.block<3, 3>(kP, 0) = -Ri_T * dt;
     J.block<3, 3>(kP, 3) = -pre_->d_alpha_d_ba();
     J.block<3, 3>(kP, 6) = -pre_->d_alpha_d_bg();
@@ -112,23 +116,23 @@ bool ImuResidual::evaluate(const double* pose_i, const double* speedbias_i, cons
     J.block<3, 3>(kV, 0) = -Ri_T;
     J.block<3, 3>(kV, 3) = -pre_->d_beta_d_ba();
     J.block<3, 3>(kV, 6) = -pre_->d_beta_d_bg();
-    J.block<3, 3>(kBa, 3) = -I3;
-    J.block<3, 3>(kBg, 6) = -I3;
-    Eigen::Map<JacobianSpeedBias>(d_r_d_speedbias_i).noalias() = sqrt_information_ * J;
+    Eigen::Map<JacobianSpeedBias> out_j(d_r_d_speedbias_i);
+    out_j.noalias() = U.leftCols<9>() * J;
+    out_j.middleCols<3>(3) -= U.middleCols<3>(kBa);
+    out_j.middleCols<3>(6) -= U.middleCols<3>(kBg);
   }
   if (d_r_d_pose_j) {
-    Eigen::Matrix<double, 15, 6> J = Eigen::Matrix<double, 15, 6>::Zero();
-    J.block<3, 3>(kP, 0) = Ri_T;
-    // e(dtheta) = e Exp(dtheta)  ->  d(2 vec e) = [L(e)]_vec,vec = w I + [vec]x
-    J.block<3, 3>(kTh, 3) = e.w() * I3 + so3::hat(e.vec());
-    Eigen::Map<JacobianPose>(d_r_d_pose_j).noalias() = sqrt_information_ * J;
+    // Rows alpha and theta only: alpha wrt dp is R_i^T, theta wrt dtheta is
+    // e(dtheta) = e Exp(dtheta)  ->  d(2 vec e) = [L(e)]_vec,vec = w I + [vec]x.
+    Eigen::Map<JacobianPose> out_j(d_r_d_pose_j);
+    out_j.leftCols<3>().noalias() = U.middleCols<3>(kP) * Ri_T;
+    out_j.rightCols<3>().noalias() = U.middleCols<3>(kTh) * (e.w() * I3 + so3::hat(e.vec()));
   }
   if (d_r_d_speedbias_j) {
-    Eigen::Matrix<double, 15, 9> J = Eigen::Matrix<double, 15, 9>::Zero();
-    J.block<3, 3>(kV, 0) = Ri_T;
-    J.block<3, 3>(kBa, 3) = I3;
-    J.block<3, 3>(kBg, 6) = I3;
-    Eigen::Map<JacobianSpeedBias>(d_r_d_speedbias_j).noalias() = sqrt_information_ * J;
+    Eigen::Map<JacobianSpeedBias> out_j(d_r_d_speedbias_j);
+    out_j.leftCols<3>().noalias() = U.middleCols<3>(kV) * Ri_T;
+    out_j.middleCols<3>(3) = U.middleCols<3>(kBa);
+    out_j.middleCols<3>(6) = U.middleCols<3>(kBg);
   }
   return true;
 }

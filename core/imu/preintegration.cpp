@@ -100,49 +100,90 @@ void Preintegration::step(const ImuSample& s0, const ImuSample& s1) {
   // Error-state transition with right-perturbed rotation (gamma <- gamma Exp(dtheta)):
   //   dtheta1 = Exp(dphi)^T dtheta0 - Jr(dphi) dt (dbg + n_g),
   //   dacc    = -1/2 (R0 [a0]x dtheta0 + R1 [a1]x dtheta1) - 1/2 (R0 + R1) dba.
-  const Matrix3d F_tt = so3::exp(dphi).transpose();
+  // F = I except the blocks below (rows/cols alpha, theta, beta, ba, bg):
+  //   alpha: [I, F_at, I dt, F_aba, F_abg]   theta: [0, F_tt, 0, 0, G]
+  //   beta:  [0, F_vt, I,    F_vba, F_vbg]   ba, bg: identity rows.
+  const Matrix3d F_tt = R1.transpose() * R0;           // Exp(dphi)^T
   const Matrix3d G = -so3::right_jacobian(dphi) * dt;  // d dtheta1 / d(dbg or gyro noise)
-  const Matrix3d A0 = -R0 * so3::hat(a0);
   const Matrix3d A1 = -R1 * so3::hat(a1);
-  const Matrix3d dacc_dth = 0.5 * (A0 + A1 * F_tt);
+  const Matrix3d dacc_dth = 0.5 * (-R0 * so3::hat(a0) + A1 * F_tt);
   const Matrix3d dacc_dba = -0.5 * (R0 + R1);
-  const Matrix3d dacc_dbg = 0.5 * A1 * G;
+  const Matrix3d M = A1 * G;  // d acc / d(dbg), times 2
+  const Matrix3d dacc_dbg = 0.5 * M;
+  const Matrix3d F_at = 0.5 * dt2 * dacc_dth, F_aba = 0.5 * dt2 * dacc_dba;
+  const Matrix3d F_abg = 0.5 * dt2 * dacc_dbg;
+  const Matrix3d F_vt = dt * dacc_dth, F_vba = dt * dacc_dba, F_vbg = dt * dacc_dbg;
 
-  Matrix15 F = Matrix15::Identity();
-  F.block<3, 3>(kP, kTheta) = 0.5 * dt2 * dacc_dth;
-  F.block<3, 3>(kP, kV) = Matrix3d::Identity() * dt;
-  F.block<3, 3>(kP, kBa) = 0.5 * dt2 * dacc_dba;
-  F.block<3, 3>(kP, kBg) = 0.5 * dt2 * dacc_dbg;
-  F.block<3, 3>(kTheta, kTheta) = F_tt;
-  F.block<3, 3>(kTheta, kBg) = G;
-  F.block<3, 3>(kV, kTheta) = dt * dacc_dth;
-  F.block<3, 3>(kV, kBa) = dt * dacc_dba;
-  F.block<3, 3>(kV, kBg) = dt * dacc_dbg;
+  // P <- F P F^T using the block structure (about a third of the dense cost).
+  Matrix15& P = covariance_;
+  Matrix15 FP;
+  FP.middleRows<3>(kP).noalias() = P.middleRows<3>(kP) + dt * P.middleRows<3>(kV);
+  FP.middleRows<3>(kP).noalias() += F_at * P.middleRows<3>(kTheta);
+  FP.middleRows<3>(kP).noalias() += F_aba * P.middleRows<3>(kBa);
+  FP.middleRows<3>(kP).noalias() += F_abg * P.middleRows<3>(kBg);
+  FP.middleRows<3>(kTheta).noalias() = F_tt * P.middleRows<3>(kTheta);
+  FP.middleRows<3>(kTheta).noalias() += G * P.middleRows<3>(kBg);
+  FP.middleRows<3>(kV) = P.middleRows<3>(kV);
+  FP.middleRows<3>(kV).noalias() += F_vt * P.middleRows<3>(kTheta);
+  FP.middleRows<3>(kV).noalias() += F_vba * P.middleRows<3>(kBa);
+  FP.middleRows<3>(kV).noalias() += F_vbg * P.middleRows<3>(kBg);
+  FP.middleRows<6>(kBa) = P.middleRows<6>(kBa);
+  P.middleCols<3>(kP).noalias() = FP.middleCols<3>(kP) + dt * FP.middleCols<3>(kV);
+  P.middleCols<3>(kP).noalias() += FP.middleCols<3>(kTheta) * F_at.transpose();
+  P.middleCols<3>(kP).noalias() += FP.middleCols<3>(kBa) * F_aba.transpose();
+  P.middleCols<3>(kP).noalias() += FP.middleCols<3>(kBg) * F_abg.transpose();
+  P.middleCols<3>(kTheta).noalias() = FP.middleCols<3>(kTheta) * F_tt.transpose();
+  P.middleCols<3>(kTheta).noalias() += FP.middleCols<3>(kBg) * G.transpose();
+  P.middleCols<3>(kV) = FP.middleCols<3>(kV);
+  P.middleCols<3>(kV).noalias() += FP.middleCols<3>(kTheta) * F_vt.transpose();
+  P.middleCols<3>(kV).noalias() += FP.middleCols<3>(kBa) * F_vba.transpose();
+  P.middleCols<3>(kV).noalias() += FP.middleCols<3>(kBg) * F_vbg.transpose();
+  P.middleCols<6>(kBa) = FP.middleCols<6>(kBa);
 
-  // Noise: the midpoint uses the noise of both end samples, which every step shares with its
+  // Noise. The midpoint uses the noise of both end samples, which every step shares with its
   // neighbour; treating them as independent halves the variance, so each end sample gets
   // 2 sigma^2/dt and the accumulated rotation variance is the continuous sigma_g^2 * T.
+  // Inputs n_a0, n_a1 (var_a each) and n_g = (n_g0 + n_g1)/2 (var_g) enter as
+  //   dalpha += dt^2/4 (R0 n_a0 + R1 n_a1 + M n_g),  dtheta += G n_g,
+  //   dbeta  += dt/2   (R0 n_a0 + R1 n_a1 + M n_g);   R R^T = I gives the closed form below.
   const ImuNoise& n = options_.noise;
   const double var_a = 2.0 * n.accel_noise_density * n.accel_noise_density / dt;
-  const double var_g_mid = n.gyro_noise_density * n.gyro_noise_density / dt;  // of (n_g0+n_g1)/2
-  Eigen::Matrix<double, 9, 9> B = Eigen::Matrix<double, 9, 9>::Zero();  // [n_a0, n_a1, n_gmid]
-  B.block<3, 3>(kP, 0) = 0.25 * dt2 * R0;
-  B.block<3, 3>(kP, 3) = 0.25 * dt2 * R1;
-  B.block<3, 3>(kP, 6) = 0.25 * dt2 * A1 * G;
-  B.block<3, 3>(kTheta, 6) = G;
-  B.block<3, 3>(kV, 0) = 0.5 * dt * R0;
-  B.block<3, 3>(kV, 3) = 0.5 * dt * R1;
-  B.block<3, 3>(kV, 6) = 0.5 * dt * A1 * G;
-  Eigen::Matrix<double, 9, 1> q;
-  q << var_a, var_a, var_a, var_a, var_a, var_a, var_g_mid, var_g_mid, var_g_mid;
+  const double var_g = n.gyro_noise_density * n.gyro_noise_density / dt;
+  const double ca = 0.25 * dt2, cv = 0.5 * dt;
+  const Matrix3d MMt = var_g * M * M.transpose();
+  const Matrix3d GGt = var_g * G * G.transpose();
+  const Matrix3d MGt = var_g * M * G.transpose();
+  const Matrix3d I3 = Matrix3d::Identity();
+  const Matrix3d Q_aa = ca * ca * (2.0 * var_a * I3 + MMt);
+  const Matrix3d Q_av = ca * cv * (2.0 * var_a * I3 + MMt);
+  const Matrix3d Q_vv = cv * cv * (2.0 * var_a * I3 + MMt);
+  P.block<3, 3>(kP, kP) += Q_aa;
+  P.block<3, 3>(kP, kTheta) += ca * MGt;
+  P.block<3, 3>(kTheta, kP) += ca * MGt.transpose();
+  P.block<3, 3>(kP, kV) += Q_av;
+  P.block<3, 3>(kV, kP) += Q_av.transpose();
+  P.block<3, 3>(kTheta, kTheta) += GGt;
+  P.block<3, 3>(kTheta, kV) += cv * MGt.transpose();
+  P.block<3, 3>(kV, kTheta) += cv * MGt;
+  P.block<3, 3>(kV, kV) += Q_vv;
+  P.block<3, 3>(kBa, kBa).diagonal().array() += n.accel_random_walk * n.accel_random_walk * dt;
+  P.block<3, 3>(kBg, kBg).diagonal().array() += n.gyro_random_walk * n.gyro_random_walk * dt;
 
-  covariance_ = (F * covariance_ * F.transpose()).eval();
-  covariance_.topLeftCorner<9, 9>().noalias() += B * q.asDiagonal() * B.transpose();
-  covariance_.block<3, 3>(kBa, kBa).diagonal().array() +=
-      n.accel_random_walk * n.accel_random_walk * dt;
-  covariance_.block<3, 3>(kBg, kBg).diagonal().array() +=
-      n.gyro_random_walk * n.gyro_random_walk * dt;
-  bias_jacobian_ = (F * bias_jacobian_).eval();
+  // Bias Jacobian: its ba/bg rows stay [I 0; 0 I], so only the alpha/theta/beta rows move.
+  Eigen::Matrix<double, 3, 6> J_a = bias_jacobian_.middleRows<3>(kP);
+  const Eigen::Matrix<double, 3, 6> J_t = bias_jacobian_.middleRows<3>(kTheta);
+  Eigen::Matrix<double, 3, 6> J_v = bias_jacobian_.middleRows<3>(kV);
+  J_a.noalias() += dt * J_v;
+  J_a.noalias() += F_at * J_t;
+  J_a.leftCols<3>() += F_aba;
+  J_a.rightCols<3>() += F_abg;
+  J_v.noalias() += F_vt * J_t;
+  J_v.leftCols<3>() += F_vba;
+  J_v.rightCols<3>() += F_vbg;
+  bias_jacobian_.middleRows<3>(kP) = J_a;
+  bias_jacobian_.middleRows<3>(kTheta).noalias() = F_tt * J_t;
+  bias_jacobian_.middleRows<3>(kTheta).rightCols<3>() += G;
+  bias_jacobian_.middleRows<3>(kV) = J_v;
 }
 
 void Preintegration::repropagate(const Eigen::Vector3d& ba, const Eigen::Vector3d& bg) {
