@@ -55,8 +55,8 @@ LossCorrector::LossCorrector(double sq_norm, const double rho[3]) {
   alpha_sq_norm_ = alpha / sq_norm;
 }
 
-void LossCorrector::correct_jacobian(int rows, int cols, int row_stride, const double* r,
-                                     double* J) const {
+void LossCorrector::correct_jacobian_general(int rows, int cols, int row_stride, const double* r,
+                                             double* J) const {
   if (alpha_sq_norm_ == 0.0) {
     for (int i = 0; i < rows; ++i)
       for (int c = 0; c < cols; ++c) J[i * row_stride + c] *= sqrt_rho1_;
@@ -68,10 +68,6 @@ void LossCorrector::correct_jacobian(int rows, int cols, int row_stride, const d
     for (int i = 0; i < rows; ++i)
       J[i * row_stride + c] = sqrt_rho1_ * (J[i * row_stride + c] - alpha_sq_norm_ * r[i] * rtj);
   }
-}
-
-void LossCorrector::correct_residual(int rows, double* r) const {
-  for (int i = 0; i < rows; ++i) r[i] *= residual_scaling_;
 }
 
 }  // namespace ums::solver

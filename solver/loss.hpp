@@ -33,10 +33,22 @@ class LossCorrector {
  public:
   LossCorrector(double sq_norm, const double rho[3]);
   // J must be corrected with the residual as it was before correct_residual().
-  void correct_jacobian(int rows, int cols, int row_stride, const double* r, double* J) const;
-  void correct_residual(int rows, double* r) const;
+  void correct_jacobian(int rows, int cols, int row_stride, const double* r, double* J) const {
+    if (alpha_sq_norm_ == 0.0 && row_stride == cols) {
+      // The common (Huber, Cauchy) case on contiguous storage: one scaling pass.
+      for (int i = 0; i < rows * cols; ++i) J[i] *= sqrt_rho1_;
+      return;
+    }
+    correct_jacobian_general(rows, cols, row_stride, r, J);
+  }
+  void correct_residual(int rows, double* r) const {
+    for (int i = 0; i < rows; ++i) r[i] *= residual_scaling_;
+  }
 
  private:
+  void correct_jacobian_general(int rows, int cols, int row_stride, const double* r,
+                                double* J) const;
+
   double sqrt_rho1_ = 1.0;
   double residual_scaling_ = 1.0;
   double alpha_sq_norm_ = 0.0;

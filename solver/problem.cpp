@@ -14,7 +14,7 @@ using ConstRowMap = Eigen::Map<const RowMat>;
 
 // H(oa.., ob..) += Ja^T Jb for two row-major Jacobian blocks of `rows` rows. The 2 x 6 case
 // (reprojection vs pose/extrinsic) dominates and gets a fixed-size path.
-inline void add_jtj(MatrixMap H, int oa, int ob, const double* Ja, int ta, const double* Jb,
+__attribute__((always_inline)) inline void add_jtj(MatrixMap H, int oa, int ob, const double* Ja, int ta, const double* Jb,
                     int tb, int rows) {
   if (rows == 2 && ta == 6 && tb == 6) {
     const Eigen::Map<const Eigen::Matrix<double, 2, 6, Eigen::RowMajor>> A(Ja);
@@ -166,6 +166,27 @@ SolverStatus Problem::prepare() {
       rb.fixed = false;
       if (b.eliminate) rb.landmark = static_cast<std::int16_t>(b.index);
     }
+    // Fast-path eligibility: 2 rows, variable reduced blocks all 6-dof, at most one 1-dof
+    // eliminated block; blocks sorted by reduced row.
+    rb.fast2 = rb.rows == 2;
+    rb.num_sorted = 0;
+    rb.lm_pos = -1;
+    for (int j = 0; j < rb.num_blocks; ++j) {
+      const Block& b = blocks_[rb.blocks[j]];
+      if (b.constant) continue;
+      if (b.eliminate) {
+        rb.lm_pos = static_cast<std::int8_t>(j);
+        rb.fast2 = rb.fast2 && b.tangent == 1;
+        continue;
+      }
+      rb.fast2 = rb.fast2 && b.tangent == 6;
+      int p = rb.num_sorted++;
+      while (p > 0 && blocks_[rb.blocks[rb.sorted[p - 1]]].index > b.index) {
+        rb.sorted[p] = rb.sorted[p - 1];
+        --p;
+      }
+      rb.sorted[p] = static_cast<std::int8_t>(j);
+    }
     if (rb.landmark >= 0) {
       ++lm_res_begin_[rb.landmark + 1];
     } else if (!rb.fixed) {
@@ -183,6 +204,7 @@ SolverStatus Problem::prepare() {
   // Couplings landmark -> reduced blocks, sorted by row so every Schur block lands in the upper
   // triangle; V storage laid out landmark after landmark.
   num_cpl_ = 0;
+  num_seg_ = 0;
   int v_used = 0;
   for (int l = 0; l < num_lm_; ++l) {
     lm_cpl_begin_[l] = num_cpl_;
@@ -219,9 +241,22 @@ SolverStatus Problem::prepare() {
           if (ids[s] == rb.blocks[j]) rb.slot[j] = static_cast<std::int16_t>(num_cpl_ + s);
       }
     }
+    lm_seg_begin_[l] = num_seg_;
+    for (int s = 0; s < n_ids; ++s) {
+      const int c = num_cpl_ + s;
+      if (s > 0 && seg_row_[num_seg_ - 1] + seg_len_[num_seg_ - 1] == cpl_row_[c]) {
+        seg_len_[num_seg_ - 1] += cpl_dim_[c];
+      } else {
+        seg_row_[num_seg_] = cpl_row_[c];
+        seg_len_[num_seg_] = cpl_dim_[c];
+        seg_v_[num_seg_] = cpl_v_[c];
+        ++num_seg_;
+      }
+    }
     num_cpl_ += n_ids;
   }
   lm_cpl_begin_[num_lm_] = num_cpl_;
+  lm_seg_begin_[num_lm_] = num_seg_;
   v_used_ = v_used;
 
   for (int p = 0; p < num_priors_; ++p) {
@@ -256,11 +291,7 @@ bool Problem::evaluate_residual(const Residual& rb, bool jacobians, double* r, d
   double sq = 0.0;
   for (int i = 0; i < rows; ++i) sq += r[i] * r[i];
   if (!std::isfinite(sq)) return false;
-  if (jacobians) {
-    for (int j = 0; j < rb.num_blocks; ++j)
-      if (jac_wanted_[j] && !all_finite(jac_ws_[j], rows * blocks_[rb.blocks[j]].tangent))
-        return false;
-  }
+  // Non-finite Jacobians are caught once per linearization (NaN/Inf propagate into H, b, V).
   if (rb.loss.type == LossType::kTrivial) {
     *cost = 0.5 * sq;
     return true;
@@ -280,9 +311,42 @@ bool Problem::evaluate_residual(const Residual& rb, bool jacobians, double* r, d
   return std::isfinite(*cost);
 }
 
+// The dominant case (a 2-row reprojection over 6-dof blocks and one inverse depth), with every
+// block product fixed-size and the blocks pre-sorted by row so each lands in the upper triangle.
+void Problem::accumulate_two_row(const Residual& rb, const double* r) {
+  using J26 = Eigen::Map<const Eigen::Matrix<double, 2, 6, Eigen::RowMajor>>;
+  const Eigen::Map<const Eigen::Vector2d> rv(r);
+  MatrixMap H = H_.m();
+  const double* Jl = rb.lm_pos >= 0 ? jac_ws_[rb.lm_pos] : nullptr;
+  const int n = rb.num_sorted;
+  for (int a = 0; a < n; ++a) {
+    const int ka = rb.sorted[a];
+    const int oa = blocks_[rb.blocks[ka]].index;
+    const J26 A(jac_ws_[ka]);
+    b_.segment<6>(oa).noalias() += A.transpose() * rv;
+    H.block<6, 6>(oa, oa).noalias() += A.transpose() * A;
+    for (int c = a + 1; c < n; ++c) {
+      const int kc = rb.sorted[c];
+      H.block<6, 6>(oa, blocks_[rb.blocks[kc]].index).noalias() += A.transpose() * J26(jac_ws_[kc]);
+    }
+    if (Jl != nullptr)
+      Eigen::Map<Eigen::Matrix<double, 6, 1>>(v_ + cpl_v_[rb.slot[ka]]).noalias() +=
+          A.transpose() * Eigen::Map<const Eigen::Vector2d>(Jl);
+  }
+  if (Jl != nullptr) {
+    const int l = rb.landmark;
+    Hll_[l][0] += Jl[0] * Jl[0] + Jl[1] * Jl[1];
+    gl_[l][0] += Jl[0] * r[0] + Jl[1] * r[1];
+  }
+}
+
 void Problem::accumulate_residual(int res_index, const double* r) {
   const Residual& rb = residuals_[res_index];
   const int rows = rb.rows;
+  if (rows == 2 && rb.fast2) {
+    accumulate_two_row(rb, r);
+    return;
+  }
   int lm_j = -1;
   for (int a = 0; a < rb.num_blocks; ++a) {
     if (!jac_wanted_[a]) continue;
@@ -320,6 +384,12 @@ void Problem::accumulate_residual(int res_index, const double* r) {
       const int t = blocks_[rb.blocks[a]].tangent;
       double* v = v_ + cpl_v_[rb.slot[a]];
       const double* Ja = jac_ws_[a];
+      if (rows == 2 && t == 6) {
+        Eigen::Map<Eigen::Matrix<double, 6, 1>>(v).noalias() +=
+            Eigen::Map<const Eigen::Matrix<double, 2, 6, Eigen::RowMajor>>(Ja).transpose() *
+            Eigen::Map<const Eigen::Vector2d>(Jl);
+        continue;
+      }
       for (int i = 0; i < rows; ++i)
         for (int c = 0; c < t; ++c) v[c] += Ja[i * t + c] * Jl[i];
     }
@@ -422,7 +492,15 @@ bool Problem::linearize(bool jacobians, double* cost) {
     total += c;
   }
   *cost = total;
-  return std::isfinite(total);
+  if (!std::isfinite(total)) return false;
+  if (jacobians) {
+    // One check of the accumulated system instead of one per Jacobian entry.
+    // A NaN/Inf anywhere in a Jacobian reaches the diagonal of H or H_ll (sums of squares).
+    if (!H_.m().diagonal().allFinite() || !b_.allFinite()) return false;
+    for (int l = 0; l < num_lm_; ++l)
+      if (!all_finite(Hll_[l], 9) || !all_finite(gl_[l], 3)) return false;
+  }
+  return true;
 }
 
 double Problem::fixed_cost() {
@@ -459,25 +537,21 @@ void Problem::eliminate_landmark(int l, double lm_scale, MatrixMap S, DenseVecto
     const double w = 1.0 / h;
     dl_[l][0] = w;  // keep 1/h for back-substitution
     const double wg = w * gl_[l][0];
-    for (int a = c0; a < c1; ++a) {
-      const int oa = cpl_row_[a];
-      const int da = cpl_dim_[a];
-      const double* va = v_ + cpl_v_[a];
-      for (int i = 0; i < da; ++i) rhs[oa + i] -= va[i] * wg;
-      for (int b = a; b < c1; ++b) {
-        const int ob = cpl_row_[b];
-        const int db = cpl_dim_[b];
-        const double* vb = v_ + cpl_v_[b];
-        if (da == 6 && db == 6) {
-          const Eigen::Map<const Eigen::Matrix<double, 6, 1>> A(va);
-          const Eigen::Map<const Eigen::Matrix<double, 6, 1>> B(vb);
-          S.block<6, 6>(oa, ob).noalias() -= (w * A) * B.transpose();
-        } else {
-          for (int j = 0; j < db; ++j) {
-            const double wb = w * vb[j];
-            for (int i = 0; i < da; ++i) S(oa + i, ob + j) -= va[i] * wb;
-          }
-        }
+    const int s0 = lm_seg_begin_[l];
+    const int s1 = lm_seg_begin_[l + 1];
+    // S -= w v v^T over the segments' upper triangle, column by column (axpy on contiguous rows).
+    for (int a = s0; a < s1; ++a) {
+      const int oa = seg_row_[a];
+      const int la = seg_len_[a];
+      const Eigen::Map<const Eigen::VectorXd> va(v_ + seg_v_[a], la);
+      rhs.segment(oa, la) -= wg * va;
+      for (int j = 0; j < la; ++j)
+        S.col(oa + j).segment(oa, j + 1) -= (w * va[j]) * va.head(j + 1);
+      for (int b = a + 1; b < s1; ++b) {
+        const int ob = seg_row_[b];
+        const int lb = seg_len_[b];
+        const double* vb = v_ + seg_v_[b];
+        for (int j = 0; j < lb; ++j) S.col(ob + j).segment(oa, la) -= (w * vb[j]) * va;
       }
     }
     return;
@@ -733,10 +807,12 @@ SolverStatus Problem::solve(const SolverOptions& options, SolverSummary* summary
     const double step_norm = std::sqrt(step_sq);
     if (step_norm <= options.parameter_tolerance * (x_norm + options.parameter_tolerance)) {
       restore();
+      sum.iterations = iteration - 1;  // as Ceres: the attempt that ends the solve is not listed
       return finish(SolverStatus::kConverged, Termination::kParameterTolerance, x_cost + fixed);
     }
     if (std::abs(x_cost - cand_cost) <= options.function_tolerance * x_cost) {
       restore();
+      sum.iterations = iteration - 1;
       return finish(SolverStatus::kConverged, Termination::kFunctionTolerance, x_cost + fixed);
     }
     const double relative_decrease = (x_cost - cand_cost) / mcc;

@@ -120,6 +120,10 @@ class Problem {
     std::int8_t rows = 0;
     std::int16_t landmark = -1;  // landmark slot of its variable eliminated block, or -1
     bool fixed = false;          // every block constant: cost only, once per solve
+    bool fast2 = false;          // 2 rows over 6-dof reduced blocks (+ one 1-dof landmark)
+    std::int8_t num_sorted = 0;  // variable reduced blocks, positions sorted by reduced row
+    std::int8_t sorted[capacity::kMaxBlocksPerResidual] = {};
+    std::int8_t lm_pos = -1;     // position of the variable eliminated block, or -1
   };
   struct PriorRef {
     const MarginalPrior* prior = nullptr;
@@ -130,6 +134,7 @@ class Problem {
   SolverStatus prepare();
   bool evaluate_residual(const Residual& rb, bool jacobians, double* r, double* cost);
   void accumulate_residual(int res_index, const double* r);
+  void accumulate_two_row(const Residual& rb, const double* r);
   bool linearize_prior(const PriorRef& p, bool jacobians, double* cost);
   // Cost (and, with jacobians, H_, b_, landmark blocks) at the current values; false if not finite.
   bool linearize(bool jacobians, double* cost);
@@ -163,6 +168,13 @@ class Problem {
   std::int8_t cpl_dim_[capacity::kMaxCouplings] = {};
   int cpl_v_[capacity::kMaxCouplings] = {};     // offset into v_ of its d x e block (row-major)
   int num_cpl_ = 0;
+  // Couplings of one landmark with adjacent rows merged into segments (frames observed in a row
+  // are contiguous in the reduced system), so its Schur update is a few dense rank-e updates.
+  int lm_seg_begin_[capacity::kMaxEliminatedBlocks + 1] = {};
+  int seg_row_[capacity::kMaxCouplings] = {};
+  int seg_len_[capacity::kMaxCouplings] = {};
+  int seg_v_[capacity::kMaxCouplings] = {};
+  int num_seg_ = 0;
   int v_used_ = 0;
 
   // Linearization: reduced H (upper triangle) and b = J^T r; per landmark H_ll, g_l, V = J_B^T J_l.

@@ -50,7 +50,7 @@ enum class Termination : unsigned char {
 struct SolverSummary {
   double initial_cost = 0.0;  // 0.5 * sum rho(|r|^2) + priors, at the start
   double final_cost = 0.0;    // same, at the returned state
-  int iterations = 0;         // step attempts (Ceres: summary.iterations.size() - 1)
+  int iterations = 0;         // completed step attempts (= Ceres' summary.iterations.size() - 1)
   int successful_steps = 0;
   int linearizations = 0;     // Jacobian evaluations of the whole problem
   Termination termination = Termination::kNone;

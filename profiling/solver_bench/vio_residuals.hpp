@@ -57,32 +57,40 @@ class ReprojectionResidual final : public solver::ResidualFunction {
 
     const bool any = jac[0].wanted() || jac[1].wanted() || jac[2].wanted() || jac[3].wanted();
     if (!any) return true;
+    // Chain of 2x3 row blocks d r / d (point in each frame); a * skew(v) is the row-wise a x v.
     Eigen::Matrix<double, 2, 3> d_r_d_pct;
     d_r_d_pct << inv_z, 0.0, -p_ct.x() * inv_z * inv_z, 0.0, inv_z, -p_ct.y() * inv_z * inv_z;
     d_r_d_pct *= sqrt_info_;
     const Eigen::Matrix<double, 2, 3> d_r_d_pc0j = d_r_d_pct * R_c0_ct_.transpose();
     const Eigen::Matrix<double, 2, 3> d_r_d_pbj = d_r_d_pc0j * R_bc.transpose();
     const Eigen::Matrix<double, 2, 3> d_r_d_pw = d_r_d_pbj * R_j.transpose();
+    const Eigen::Matrix<double, 2, 3> d_r_d_pbi = d_r_d_pw * R_i;
+    const Eigen::Matrix<double, 2, 3> d_r_d_pci = d_r_d_pbi * R_bc;
+    auto times_skew = [](const Eigen::Matrix<double, 2, 3>& a, const Eigen::Vector3d& v) {
+      Eigen::Matrix<double, 2, 3> out;
+      out.row(0) = a.row(0).cross(v.transpose());
+      out.row(1) = a.row(1).cross(v.transpose());
+      return out;
+    };
     if (jac[0].wanted()) {
       auto J = solver::jacobian_map<2, 6>(jac[0]);
       J.leftCols<3>() = d_r_d_pw;
-      J.rightCols<3>() = -d_r_d_pw * R_i * skew(p_bi);
+      J.rightCols<3>() = -times_skew(d_r_d_pbi, p_bi);
     }
     if (jac[1].wanted()) {
       auto J = solver::jacobian_map<2, 6>(jac[1]);
       J.leftCols<3>() = -d_r_d_pw;
-      J.rightCols<3>() = d_r_d_pbj * skew(p_bj);
+      J.rightCols<3>() = times_skew(d_r_d_pbj, p_bj);
     }
-    const Eigen::Matrix3d R_ji = R_j.transpose() * R_i;
     if (jac[2].wanted()) {
+      // t_bc moves p_bi by +dt and p_c0j by -R_bc^T dt; R_bc rotates both ends.
       auto J = solver::jacobian_map<2, 6>(jac[2]);
-      J.leftCols<3>() = d_r_d_pc0j * R_bc.transpose() * (R_ji - Eigen::Matrix3d::Identity());
-      J.rightCols<3>() =
-          d_r_d_pc0j * (skew(p_c0j) - R_bc.transpose() * R_ji * R_bc * skew(p_ci));
+      J.leftCols<3>() = d_r_d_pbi - d_r_d_pbj;
+      J.rightCols<3>() = times_skew(d_r_d_pc0j, p_c0j) - times_skew(d_r_d_pci, p_ci);
     }
     if (jac[3].wanted()) {
       auto J = solver::jacobian_map<2, 1>(jac[3]);
-      J = d_r_d_pbj * R_ji * R_bc * (-bearing_i_ / (rho * rho));
+      J = d_r_d_pci * (-bearing_i_ / (rho * rho));
     }
     return true;
   }

@@ -191,7 +191,8 @@ inline std::unique_ptr<VioWindow> make_vio_window(const WindowConfig& cfg) {
     const int h = host[l];
     Eigen::Vector2d uv;
     // The host observation defines the bearing (as VINS does), with its own noise.
-    const Eigen::Vector2d uv_h = noisy(bearing[l].head<2>());
+    // (pixel noise only: a gross error in the host observation would corrupt the whole track)
+    const Eigen::Vector2d uv_h = bearing[l].head<2>() + sigma * Eigen::Vector2d(rng.normal(), rng.normal());
     const Eigen::Vector3d b_meas(uv_h.x(), uv_h.y(), 1.0);
     if (rng.uniform(0.0, 1.0) < cfg.stereo_fraction && project(h, p_w[l], true, &uv)) {
       w->functions.push_back(std::make_unique<StereoHostResidual>(b_meas, noisy(uv), q_c0c1, t_c0c1, sqrt_info));
@@ -262,15 +263,16 @@ inline std::unique_ptr<VioWindow> make_vio_window(const WindowConfig& cfg) {
     w->residuals.push_back(rd);
   }
 
-  // Initial values: truth perturbed (a few cm, ~0.5 deg, 10 % depth, small velocity/bias errors).
+  // Initial values: truth perturbed as a sliding window sees them after propagation (1 cm,
+  // 0.1 deg, 5 % inverse depth, small velocity/bias errors).
   w->poses.resize(F);
   w->speed_bias.resize(F);
   for (int i = 0; i < F; ++i) {
-    const Eigen::Vector3d p = P[i] + 0.03 * rng.normal3();
-    const Eigen::Quaterniond q = (Q[i] * solver::so3_exp(0.008 * rng.normal3())).normalized();
+    const Eigen::Vector3d p = P[i] + 0.01 * rng.normal3();
+    const Eigen::Quaterniond q = (Q[i] * solver::so3_exp(0.002 * rng.normal3())).normalized();
     put_pose(w->poses[i], p, q);
     for (int k = 0; k < 9; ++k)
-      w->speed_bias[i][k] = w->speed_bias_true[i][k] + (k < 3 ? 0.05 : (k < 6 ? 0.01 : 0.001)) * rng.normal();
+      w->speed_bias[i][k] = w->speed_bias_true[i][k] + (k < 3 ? 0.02 : (k < 6 ? 0.005 : 0.0005)) * rng.normal();
   }
   {
     const Eigen::Vector3d p = t_bc + 0.005 * rng.normal3();
@@ -279,7 +281,7 @@ inline std::unique_ptr<VioWindow> make_vio_window(const WindowConfig& cfg) {
   }
   w->inv_depth.resize(cfg.landmarks);
   for (int l = 0; l < cfg.landmarks; ++l)
-    w->inv_depth[l] = w->inv_depth_true[l] * (1.0 + 0.1 * rng.normal());
+    w->inv_depth[l] = w->inv_depth_true[l] * (1.0 + 0.05 * rng.normal());
 
   // Dense prior (as left by marginalizing an older frame): all poses, the first speed-bias and the
   // extrinsic, linearized at the truth with well-conditioned random information.
