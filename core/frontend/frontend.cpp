@@ -255,24 +255,33 @@ void Frontend::match_stereo(FrontendFrameStats* st) {
     Eigen::Vector2f inf_px;
     const bool inf_ok = cam_[1].project(R_c1_c0_ * t.bearing, &inf_px);
     Eigen::Vector2f guess = t.right_guess;
+    t.stereo_prev = t.stereo;
     if (!std::isfinite(guess.x())) guess = inf_ok ? Eigen::Vector2f(inf_px + stereo_offset_px_) : t.uv;
     t.right_guess = guess;
     t.stereo = false;
     // New features (no match history) also try starting points along the epipolar line at
     // finite depths: near points (the floor below the camera) have disparities far beyond what
     // the pyramid recovers from the infinity guess. Older features keep their single guess.
-    const int n_hyp = (t.length == 0) ? 1 + kStereoDepthHypotheses : 1;
+    // A feature matched in the previous frame starts next to its match: like temporal 3D
+    // tracking it uses levels_3d first and falls back to the full levels_stereo pyramid.
+    const bool had_match = std::isfinite(t.right_guess.x()) && t.stereo_prev;
+    const int n_hyp = (t.length == 0) ? 1 + kStereoDepthHypotheses : (had_match ? 2 : 1);
     Eigen::Vector2f pr = guess;
     Eigen::Vector3f br = Eigen::Vector3f::UnitZ();
     bool matched = false, epipolar_failed = false;
     float d = 0.0f;
     for (int h = 0; h < n_hyp && !matched; ++h) {
       Eigen::Vector2f start = guess;
-      if (h > 0 && !cam_[1].project(R_c1_c0_ * (t.bearing * kStereoDepthsM[h - 1]) + t_c1_c0_, &start)) continue;
+      int levels = options_.levels_stereo;
+      if (had_match) {
+        levels = h == 0 ? std::min(options_.levels_3d, options_.levels_stereo) : options_.levels_stereo;
+      } else if (h > 0 && !cam_[1].project(R_c1_c0_ * (t.bearing * kStereoDepthsM[h - 1]) + t_c1_c0_, &start)) {
+        continue;
+      }
       pr = start;
-      if (klt_track(L, R, options_.levels_stereo, options_.klt, t.uv, &pr) != Status::kOk) continue;
+      if (klt_track(L, R, levels, options_.klt, t.uv, &pr) != Status::kOk) continue;
       Eigen::Vector2f back = t.uv;
-      if (klt_track(R, L, options_.levels_stereo, options_.klt, pr, &back) != Status::kOk ||
+      if (klt_track(R, L, levels, options_.klt, pr, &back) != Status::kOk ||
           (back - t.uv).squaredNorm() > options_.stereo_fb_max_px * options_.stereo_fb_max_px) {
         continue;
       }

@@ -84,7 +84,8 @@ class Frontend {
   struct LeftTrack {
     std::uint32_t id = 0;
     std::uint32_t length = 0;
-    bool stereo = false;                 // class at the previous frame (3D)
+    bool stereo = false;                 // 3D (matched in the right image) at the last match_stereo
+    bool stereo_prev = false;            // scratch: the class before this frame's match
     Eigen::Vector2f uv = Eigen::Vector2f::Zero();        // cam0 px
     Eigen::Vector3f bearing = Eigen::Vector3f::UnitZ();  // cam0
     Eigen::Vector2f xy = Eigen::Vector2f::Zero();        // cam0 normalized

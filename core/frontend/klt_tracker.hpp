@@ -15,7 +15,8 @@
 namespace ums {
 
 struct KltOptions {
-  int window_px = 21;             // px, odd side of the square window (VINS-Fusion uses 21)
+  int window_px = 15;             // px, odd side of the square window (VINS-Fusion uses 21; on EuRoC
+                                  // 15 keeps the 3D count and epipolar RMS at 0.6x the time)
   int max_iterations = 30;        // per pyramid level
   float epsilon_px = 0.01f;       // px, stop when the update is smaller
   float min_eigen = 1.0f;         // (grey/px)^2, min eigenvalue of the mean structure tensor
