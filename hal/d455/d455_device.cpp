@@ -64,6 +64,15 @@ Status D455Device::start(std::string* error) {
     *error = "d455: start() before open()";
     return Status::kIoError;
   }
+  // stop() closed the IIO devices (their buffers power the HID sensors): reopen for a new session.
+  if (accel_ != nullptr && accel_->fd() < 0) {
+    const Status s = accel_->open(nodes_.accel_sysfs, nodes_.accel_dev, error);
+    if (s != Status::kOk) return s;
+  }
+  if (gyro_ != nullptr && gyro_->fd() < 0) {
+    const Status s = gyro_->open(nodes_.gyro_sysfs, nodes_.gyro_dev, error);
+    if (s != Status::kOk) return s;
+  }
   return camera_->start(error);
 }
 

@@ -55,6 +55,7 @@ class D455Device {
   Status open(std::string* error);
   // Configures given nodes (paths rooted like SysFs paths).
   Status open_nodes(const D455Nodes& nodes, std::string* error);
+  // start/stop may alternate: stop() halts the camera and closes the IIO devices, start() reopens.
   Status start(std::string* error);
   void stop();
 

@@ -99,6 +99,10 @@ TEST_CASE("Recorder stops at the requested duration or on the stop flag with kOk
   CHECK(summary.duration_s >= 0.05);
   CHECK(summary.duration_s < 2.0);
   CHECK(summary.frames > 0);
+  // A second session on the same device: camera and IMU both come back after stop().
+  CHECK(record(dev, sink, ro, nullptr, &summary, &error) == Status::kOk);
+  CHECK(summary.frames > 0);
+  CHECK(summary.imu_samples > 0);
   std::atomic<bool> stop{true};
   ro.seconds = 0.0;
   CHECK(record(dev, sink, ro, &stop, &summary, &error) == Status::kOk);
