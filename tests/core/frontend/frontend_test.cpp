@@ -111,7 +111,7 @@ TEST_CASE("synthetic rectified pair: every stereo match has the true disparity a
   INFO("3D " << out.n_3d << " 2D-left " << out.n_2d_left << " 2D-right " << out.n_2d_right << " disparity RMS " << rms
              << " px, epipolar RMS " << out.stats.stereo_epipolar_rms_px);
   CHECK(out.n_3d >= 0.8 * static_cast<double>(out.features.size()));
-  CHECK(rms < 0.1);
+  CHECK(rms < 0.05);
   CHECK(out.stats.stereo_epipolar_rms_px < 0.05f);
 }
 
