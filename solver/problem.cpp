@@ -539,19 +539,29 @@ void Problem::eliminate_landmark(int l, double lm_scale, MatrixMap S, DenseVecto
     const double wg = w * gl_[l][0];
     const int s0 = lm_seg_begin_[l];
     const int s1 = lm_seg_begin_[l + 1];
-    // S -= w v v^T over the segments' upper triangle, column by column (axpy on contiguous rows).
+    // S -= w v v^T over the segments' upper triangle, column by column: plain axpy loops on
+    // contiguous rows (short, variable lengths: cheaper than Eigen segment expressions).
+    const Eigen::Index ld = S.outerStride();
     for (int a = s0; a < s1; ++a) {
       const int oa = seg_row_[a];
       const int la = seg_len_[a];
-      const Eigen::Map<const Eigen::VectorXd> va(v_ + seg_v_[a], la);
-      rhs.segment(oa, la) -= wg * va;
-      for (int j = 0; j < la; ++j)
-        S.col(oa + j).segment(oa, j + 1) -= (w * va[j]) * va.head(j + 1);
+      const double* va = v_ + seg_v_[a];
+      double* rhs_a = rhs.data() + oa;
+      for (int i = 0; i < la; ++i) rhs_a[i] -= wg * va[i];
+      for (int j = 0; j < la; ++j) {
+        double* col = S.data() + (oa + j) * ld + oa;
+        const double cj = w * va[j];
+        for (int i = 0; i <= j; ++i) col[i] -= cj * va[i];
+      }
       for (int b = a + 1; b < s1; ++b) {
         const int ob = seg_row_[b];
         const int lb = seg_len_[b];
         const double* vb = v_ + seg_v_[b];
-        for (int j = 0; j < lb; ++j) S.col(ob + j).segment(oa, la) -= (w * vb[j]) * va;
+        for (int j = 0; j < lb; ++j) {
+          double* col = S.data() + (ob + j) * ld + oa;
+          const double cj = w * vb[j];
+          for (int i = 0; i < la; ++i) col[i] -= cj * va[i];
+        }
       }
     }
     return;

@@ -465,3 +465,94 @@ TEST_CASE("Solve, cost evaluation and marginalization allocate nothing after set
 
 }  // namespace
 }  // namespace ums::solver
+
+namespace ums::solver {
+namespace {
+
+// r = A x_a + B x_b + c (affine): one Gauss-Newton step lands on the least-squares solution.
+class AffineResidual final : public ResidualFunction {
+ public:
+  AffineResidual(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, const Eigen::VectorXd& c)
+      : A_(A), B_(B), c_(c) {}
+  int num_residuals() const override { return static_cast<int>(c_.size()); }
+  bool evaluate(const double* const* x, double* r, const JacobianView* jac) const override {
+    const Eigen::Map<const Eigen::VectorXd> xa(x[0], A_.cols()), xb(x[1], B_.cols());
+    Eigen::Map<Eigen::VectorXd>(r, c_.size()) = A_ * xa + B_ * xb + c_;
+    for (int k = 0; k < 2; ++k) {
+      if (!jac[k].wanted()) continue;
+      const Eigen::MatrixXd& M = k == 0 ? A_ : B_;
+      for (int i = 0; i < M.rows(); ++i)
+        for (int j = 0; j < M.cols(); ++j) jac[k].data[i * jac[k].row_stride + j] = M(i, j);
+    }
+    return true;
+  }
+
+ private:
+  Eigen::MatrixXd A_, B_;
+  Eigen::VectorXd c_;
+};
+
+TEST_CASE("Eliminated blocks of 2 and 3 dofs and odd block sizes: Schur step = dense solve",
+          "[solver][problem]") {
+  bench::Rng rng(21);
+  auto randm = [&](int r, int c) {
+    Eigen::MatrixXd m(r, c);
+    for (int i = 0; i < r; ++i)
+      for (int j = 0; j < c; ++j) m(i, j) = rng.normal();
+    return m;
+  };
+  // Reduced blocks of 4, 5 and 1 dofs; 12 landmarks of 3 or 2 dofs, each seen 3 times.
+  const int red_size[3] = {4, 5, 1};
+  std::vector<std::vector<double>> x_red(3), x_lm(12);
+  auto problem = std::make_unique<Problem>();
+  BlockId red_id[3], lm_id[12];
+  for (int k = 0; k < 3; ++k) {
+    x_red[static_cast<std::size_t>(k)].assign(static_cast<std::size_t>(red_size[k]), 0.0);
+    REQUIRE(problem->add_euclidean_block(x_red[static_cast<std::size_t>(k)].data(), red_size[k], &red_id[k]) == SolverStatus::kOk);
+  }
+  for (int l = 0; l < 12; ++l) {
+    const int e = l % 2 == 0 ? 3 : 2;
+    x_lm[static_cast<std::size_t>(l)].assign(static_cast<std::size_t>(e), 0.0);
+    REQUIRE(problem->add_landmark_block(x_lm[static_cast<std::size_t>(l)].data(), e, &lm_id[l]) == SolverStatus::kOk);
+  }
+  std::vector<std::unique_ptr<AffineResidual>> res;
+  const int dim = 10 + 6 * 3 + 6 * 2;
+  auto col_of_red = [&](int k) { return k == 0 ? 0 : (k == 1 ? 4 : 9); };
+  auto col_of_lm = [&](int l) { return 10 + (l / 2) * 5 + (l % 2 == 0 ? 0 : 3); };
+  Eigen::MatrixXd Jd = Eigen::MatrixXd::Zero(12 * 3 * 4, dim);
+  Eigen::VectorXd rd = Eigen::VectorXd::Zero(12 * 3 * 4);
+  int row = 0;
+  for (int l = 0; l < 12; ++l) {
+    const int e = l % 2 == 0 ? 3 : 2;
+    for (int k = 0; k < 3; ++k) {
+      const Eigen::MatrixXd A = randm(4, red_size[k]), B = randm(4, e);
+      Eigen::VectorXd c(4);
+      for (int i = 0; i < 4; ++i) c[i] = rng.normal();
+      res.push_back(std::make_unique<AffineResidual>(A, B, c));
+      REQUIRE(problem->add_residual(res.back().get(), RobustLoss::trivial(), {red_id[k], lm_id[l]}) == SolverStatus::kOk);
+      Jd.block(row, col_of_red(k), 4, red_size[k]) = A;
+      Jd.block(row, col_of_lm(l), 4, e) = B;
+      rd.segment(row, 4) = c;
+      row += 4;
+    }
+  }
+  const Eigen::VectorXd expected = -(Jd.transpose() * Jd).ldlt().solve(Jd.transpose() * rd);
+  SolverSummary sum;
+  REQUIRE(usable(problem->solve(one_step(Method::kGaussNewton), &sum)));
+  double worst = 0.0;
+  for (int k = 0; k < 3; ++k)
+    for (int i = 0; i < red_size[k]; ++i)
+      worst = std::max(worst, std::abs(x_red[static_cast<std::size_t>(k)][static_cast<std::size_t>(i)] - expected[col_of_red(k) + i]));
+  for (int l = 0; l < 12; ++l)
+    for (std::size_t i = 0; i < x_lm[static_cast<std::size_t>(l)].size(); ++i)
+      worst = std::max(worst, std::abs(x_lm[static_cast<std::size_t>(l)][i] - expected[col_of_lm(l) + static_cast<int>(i)]));
+  INFO("max |x - x_dense| " << worst << " |x_dense| " << expected.norm());
+  CHECK(worst < 1e-10 * (1.0 + expected.lpNorm<Eigen::Infinity>()));
+  // At the least-squares solution a second solve does not move (gradient ~ 0).
+  SolverOptions opt;
+  REQUIRE(usable(problem->solve(opt, &sum)));
+  CHECK(sum.final_cost == Approx(sum.initial_cost).epsilon(1e-12));
+}
+
+}  // namespace
+}  // namespace ums::solver
