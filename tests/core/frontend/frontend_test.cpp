@@ -175,3 +175,42 @@ TEST_CASE("frontend rejects a wrong-size image and options beyond capacity") {
   bad.max_cnt = 100000;
   CHECK_THROWS_AS(ums::Frontend(bad, rig), std::invalid_argument);
 }
+
+TEST_CASE("a frame without its right image keeps the left tracks (2D-left) and stereo resumes after") {
+  const int w = 480, h = 320;
+  const double f = 400.0, disparity = 10.0;
+  const ums::test::BlobTexture tex(w + 40, h, 900, 4242u);
+  const ums::test::GreyImage left = tex.render(w, h);
+  const ums::test::GreyImage right = tex.render(w, h, 0.0, Eigen::Vector2d(-disparity, 0.0));
+  ums::Frontend fe(ums::FrontendOptions{}, synthetic_rig(w, h, f));
+  static ums::FrameFeatures f0, f1, f2;
+  ums::StereoFrame fr;
+  fr.left = left.view();
+  fr.right = right.view();
+  REQUIRE(fe.process(fr, nullptr, &f0) == ums::Status::kOk);
+  fr.seq = 1;
+  fr.right = ums::ImageView{};  // dropped right frame
+  REQUIRE(fe.process(fr, nullptr, &f1) == ums::Status::kOk);
+  fr.seq = 2;
+  fr.right = right.view();
+  REQUIRE(fe.process(fr, nullptr, &f2) == ums::Status::kOk);
+  const int left0 = f0.n_3d + f0.n_2d_left;
+  INFO("frame 0: 3D " << f0.n_3d << " 2D-left " << f0.n_2d_left << " 2D-right " << f0.n_2d_right << "; frame 1: 2D-left "
+                      << f1.n_2d_left << "; frame 2: 3D " << f2.n_3d);
+  CHECK(f1.n_3d == 0);
+  CHECK(f1.n_2d_right == 0);
+  CHECK(f1.n_2d_left >= left0);  // every left track survives a still image (plus top-up detections)
+  std::map<std::uint32_t, std::uint32_t> len1;
+  for (const auto& o : f1.features) {
+    CHECK(o.cls == ums::FeatureClass::k2DLeft);
+    CHECK_FALSE(std::isfinite(o.uv_right_px.x()));
+    len1[o.id] = o.track_length;
+  }
+  CHECK(f2.n_3d >= f0.n_3d - 2);
+  int continued = 0;
+  for (const auto& o : f2.features) {
+    auto it = len1.find(o.id);
+    if (it != len1.end() && o.track_length == it->second + 1) ++continued;
+  }
+  CHECK(continued >= left0);
+}
