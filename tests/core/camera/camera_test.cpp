@@ -58,11 +58,11 @@ void check_round_trip_and_jacobian(const Cam& cam, double max_roundtrip_px) {
 
 }  // namespace
 
-TEST_CASE("radtan (EuRoC cam0): unproject then project returns the pixel; d_uv_d_p matches differences") {
+TEST_CASE("radtan (EuRoC cam0): unproject then project returns the pixel and d_uv_d_p matches differences") {
   check_round_trip_and_jacobian(euroc_cam0(), 1e-6);
 }
 
-TEST_CASE("equidistant: unproject then project returns the pixel; d_uv_d_p matches differences") {
+TEST_CASE("equidistant: unproject then project returns the pixel and d_uv_d_p matches differences") {
   check_round_trip_and_jacobian(equidistant_cam(), 1e-6);
 }
 

@@ -34,7 +34,7 @@ TEST_CASE("pyramid level 1 of a linear ramp samples the ramp at twice the coordi
   for (int x = 2; x < 98; ++x) CHECK(std::abs(pyr.level(1).row(20)[x] - 2 * x) <= 1);
 }
 
-TEST_CASE("pyramid rejects a wrong-size image and sizes beyond capacity; build allocates nothing") {
+TEST_CASE("pyramid rejects a wrong-size image and sizes beyond capacity, and build allocates nothing") {
   ums::ImagePyramid pyr(64, 48, 4);
   ums::test::GreyImage wrong(65, 48);
   CHECK(pyr.build(wrong.view()) == ums::Status::kInvalidInput);
