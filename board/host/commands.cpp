@@ -24,7 +24,7 @@ usage: umsvins <command> [options]
       Repeat replay from random start times (robustness table).
   live --config F [--source replay:DIR]      Run on a RealSense D455 (or a recorded source).
   record --out DIR [--seconds S]             Record a D455 to the EuRoC layout.
-  budget [--config F]                        Print the static memory budget.
+  budget [--config F] [--dataset DIR]        Print the memory each pipeline component takes.
   version                                    Print the version.
 
 exit codes: 0 ok, 1 failure (the message names file, line or key), 2 capability not implemented
@@ -57,7 +57,7 @@ int run_cli(const std::vector<std::string>& args, std::ostream& out, std::ostrea
     if (command == "sweep") return not_implemented(command, "needs the estimator, issue 7", err);
     if (command == "live") return not_implemented(command, "D455 live app, issue 9", err);
     if (command == "record") return not_implemented(command, "D455 recorder, issue 9", err);
-    if (command == "budget") return not_implemented(command, "memory budget, issue 8", err);
+    if (command == "budget") return run_budget(rest, out, err);
     err << "umsvins: unknown command '" << command << "'\n\n" << kUsage;
     return kExitUsage;
   } catch (const UsageError& e) {

@@ -16,6 +16,7 @@
 #include "board/host/replay_pipeline.hpp"
 #include "core/common/version.hpp"
 #include "hal/replay/euroc_reader.hpp"
+#include "profiling/alloc_counter.hpp"
 #include "profiling/json_writer.hpp"
 #include "profiling/progress.hpp"
 
@@ -74,7 +75,10 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
 
   ReplayPipelineOptions pipeline_options;
   pipeline_options.frontend_only = args.has("frontend-only");
+  // Start-up footprint: everything the pipeline allocates while it is built, plus itself.
+  AllocScope startup_allocs;
   ReplayPipeline pipeline(config, pipeline_options);
+  pipeline.set_static_bytes(static_cast<std::size_t>(startup_allocs.bytes()) + sizeof(ReplayPipeline));
 
   const bool quiet = args.has("quiet");
   Progress progress("replay", static_cast<unsigned long>(reader.total_pairs_estimate()));

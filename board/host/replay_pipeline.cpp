@@ -101,6 +101,7 @@ void ReplayPipeline::on_stereo(const StereoFrame& frame) {
 
 void ReplayPipeline::accumulate_features(const FrameFeatures& f) {
   ++frontend_frames_;
+  if (f.features.size() > peak_features_) peak_features_ = f.features.size();
   sum_3d_ += f.n_3d;
   sum_2d_left_ += f.n_2d_left;
   sum_2d_right_ += f.n_2d_right;
@@ -138,7 +139,14 @@ void ReplayPipeline::write_stats(JsonWriter& w) const {
   w.begin_object("imu").value("saturated_samples", s.saturated_samples).end_object();
   w.begin_object("memory")
       .value("heap_allocs_steady_state", summary_.heap_allocs_steady_state)
+      .value("static_bytes", static_cast<std::uint64_t>(static_bytes_))
       .value("alloc_counter", alloc_counter_available())
+      .begin_object("pools")
+      .begin_object("frame_features")
+      .value("capacity", static_cast<std::uint64_t>(decltype(FrameFeatures::features)::capacity()))
+      .value("peak", static_cast<std::uint64_t>(peak_features_))
+      .end_object()
+      .end_object()
       .end_object();
   w.begin_object("drops")
       .value("imu_out_of_order", out_of_order_imu_)

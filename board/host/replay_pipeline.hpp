@@ -48,6 +48,7 @@ class ReplayPipeline final : public MeasurementSink {
   void on_stereo(const StereoFrame& frame) override;
 
   std::uint64_t frames() const { return summary_.frames; }
+  void set_static_bytes(std::size_t bytes) { static_bytes_ = bytes; }
   bool has_estimator() const { return false; }
   const StageTimes& stage_times() const { return *times_; }
   ReplaySummary summary() const;
@@ -82,6 +83,8 @@ class ReplayPipeline final : public MeasurementSink {
   double sum_track_length_ = 0.0, observations_ = 0.0;
   double sum_sq_epipolar_px_ = 0.0, epipolar_matches_ = 0.0;
   std::uint64_t frontend_frames_ = 0;
+  std::size_t peak_features_ = 0;
+  std::size_t static_bytes_ = 0;
 };
 
 }  // namespace ums::cli

@@ -61,13 +61,28 @@ TEST_CASE("umsvins: usage errors exit 64 and name the mistake", "[cli]") {
 
 TEST_CASE("umsvins: capabilities that do not exist yet exit 2 and write nothing", "[cli]") {
   const std::string dir = test::make_temp_dir("cli_not_implemented");
-  for (const char* command : {"sweep", "live", "record", "budget"}) {
+  for (const char* command : {"sweep", "live", "record"}) {
     const Run r = run({command, "--out", dir});
     INFO(command);
     CHECK(r.code == kExitNotImplemented);
     CHECK(r.err.find("not implemented yet") != std::string::npos);
   }
   CHECK(std::filesystem::is_empty(dir));
+}
+
+TEST_CASE("umsvins budget measures every component it lists", "[cli]") {
+  const Run r = run({"budget", "--dataset", test::euroc_micro_dir()});
+  INFO(r.err);
+  REQUIRE(r.code == kExitOk);
+  CHECK(r.out.find("frontend") != std::string::npos);
+  CHECK(r.out.find("solver_problem") != std::string::npos);
+  // Two 752x480 frame buffers of the replay, exactly.
+  CHECK(r.out.find("replay_images                721920 B") != std::string::npos);
+  const std::size_t at = r.out.find("replay pipeline");
+  REQUIRE(at != std::string::npos);
+  const double pipeline_bytes = std::stod(r.out.substr(at + 15));
+  CHECK(pipeline_bytes > 1e6);   // pyramids of two 752x480 images alone are over 1 MB
+  CHECK(pipeline_bytes < 64e6);  // and the whole pipeline fits a small board comfortably
 }
 
 TEST_CASE("umsvins replay: a missing dataset fails with its path", "[cli]") {

@@ -1,0 +1,116 @@
+// umsvins budget: the memory the pipeline takes, component by component.
+//
+// Each component is built as the replay/live pipeline builds it, inside an allocation scope: its
+// footprint is its object size plus every byte it allocates at start-up. Nothing is estimated
+// by hand, so the table stays true when a component changes. After start-up nothing grows
+// (stats.json memory.heap_allocs_steady_state shows it for a run).
+
+#include <cstdio>
+#include <memory>
+
+#include "board/config/app_config.hpp"
+#include "board/host/cli_args.hpp"
+#include "board/host/commands.hpp"
+#include "board/host/replay_pipeline.hpp"
+#include "core/common/capacity.hpp"
+#include "core/frontend/frontend.hpp"
+#include "core/imu/preintegration.hpp"
+#include "hal/d455/nominal_calibration.hpp"
+#include "hal/replay/euroc_reader.hpp"
+#include "hal/replay/png_io.hpp"
+#include "profiling/alloc_counter.hpp"
+#include "profiling/stage_timer.hpp"
+#include "solver/problem.hpp"
+
+namespace ums::cli {
+namespace {
+
+struct Row {
+  const char* name;
+  std::size_t bytes;
+  std::string note;
+};
+
+template <typename Make>
+std::size_t measure(Make make, std::size_t object_bytes) {
+  AllocScope scope;
+  auto object = make();
+  const std::size_t heap = static_cast<std::size_t>(scope.bytes());
+  (void)object;
+  return heap + object_bytes;
+}
+
+std::string kib(std::size_t bytes) {
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%.1f KiB", static_cast<double>(bytes) / 1024.0);
+  return buf;
+}
+
+}  // namespace
+
+int run_budget(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
+  const Args args("budget", argv, {}, {"config", "dataset"});
+  args.require_positionals(0, "");
+
+  // Calibration: a dataset's sensor.yaml, else the D455 at its default 848x480 mode; a config
+  // file overrides on top of either.
+  RigCalibration rig = d455::d455_nominal_calibration(848, 480, 30.0, 200.0);
+  std::string source = "D455 nominal 848x480";
+  if (args.get("dataset")) {
+    hal::EurocReader reader;
+    reader.open(*args.get("dataset"));
+    rig = reader.calibration();
+    source = *args.get("dataset");
+  }
+  std::vector<std::string> warnings;
+  const AppConfig config =
+      args.get("config") ? load_config(*args.get("config"), rig, &warnings) : config_from_calibration(rig);
+  for (const std::string& w : warnings) err << "warning: " << w << "\n";
+  if (args.get("config")) source += " + " + *args.get("config");
+
+  const FrontendOptions frontend_options = [&config] {
+    FrontendOptions o;
+    o.max_cnt = config.max_cnt;
+    return o;
+  }();
+
+  std::vector<Row> rows;
+  rows.push_back({"frontend", measure([&] { return std::make_unique<Frontend>(frontend_options, config.rig); },
+                                      sizeof(Frontend)),
+                  "pyramids of both cameras, detector buffers, tracks"});
+  rows.push_back({"frame_features", sizeof(FrameFeatures),
+                  std::to_string(capacity::kMaxFeaturesPerCamera) + " features"});
+  rows.push_back({"preintegration_window", capacity::kWindowSize * sizeof(Preintegration),
+                  std::to_string(capacity::kWindowSize) + " intervals x " +
+                      std::to_string(capacity::kMaxImuSamplesBetweenFrames) + " samples"});
+  rows.push_back({"solver_problem", measure([] { return std::make_unique<solver::Problem>(); }, sizeof(solver::Problem)),
+                  "blocks, residuals, Schur and reduced-system storage"});
+  rows.push_back({"stage_timers", sizeof(StageTimes),
+                  std::to_string(StageTimes::kWindow) + " samples x " +
+                      std::to_string(static_cast<int>(Stage::kCount)) + " stages"});
+  rows.push_back({"png_decoder", measure([] { return std::make_unique<hal::PngGrayReader>(); }, 0),
+                  "replay only: libpng/zlib arena"});
+  rows.push_back({"replay_images", static_cast<std::size_t>(2 * config.rig.cam[0].width * config.rig.cam[0].height),
+                  "replay only: left + right frame buffers"});
+
+  std::size_t total = 0;
+  out << "memory budget (" << source << ", max_cnt " << config.max_cnt << ")\n";
+  char line[200];
+  for (const Row& r : rows) {
+    std::snprintf(line, sizeof(line), "  %-22s %12zu B  %12s  %s\n", r.name, r.bytes, kib(r.bytes).c_str(),
+                  r.note.c_str());
+    out << line;
+    total += r.bytes;
+  }
+  const std::size_t pipeline = measure([&] {
+    return std::make_unique<ReplayPipeline>(config, ReplayPipelineOptions{});
+  }, sizeof(ReplayPipeline));
+  std::snprintf(line, sizeof(line), "  %-22s %12zu B  %12s\n", "total of the rows", total, kib(total).c_str());
+  out << line;
+  std::snprintf(line, sizeof(line), "  %-22s %12zu B  %12s  %s\n", "replay pipeline", pipeline,
+                kib(pipeline).c_str(), "as built by umsvins replay (stats.json memory.static_bytes)");
+  out << line;
+  return kExitOk;
+}
+
+}  // namespace ums::cli
