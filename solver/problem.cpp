@@ -173,6 +173,9 @@ SolverStatus Problem::prepare() {
     rb.lm_pos = -1;
     for (int j = 0; j < rb.num_blocks; ++j) {
       const Block& b = blocks_[rb.blocks[j]];
+      rb.params[j] = b.x;
+      rb.tangent[j] = b.tangent;
+      rb.variable[j] = !b.constant;
       if (b.constant) continue;
       if (b.eliminate) {
         rb.lm_pos = static_cast<std::int8_t>(j);
@@ -272,21 +275,19 @@ SolverStatus Problem::prepare() {
   rhs_.resize(n_red_);
   dx_.resize(n_red_);
   scale_red_.resize(n_red_);
+  d_red_.resize(n_red_);
   prepared_ = true;
   return SolverStatus::kOk;
 }
 
 bool Problem::evaluate_residual(const Residual& rb, bool jacobians, double* r, double* cost) {
-  const double* params[capacity::kMaxBlocksPerResidual];
   JacobianView jv[capacity::kMaxBlocksPerResidual];
   for (int j = 0; j < rb.num_blocks; ++j) {
-    const Block& b = blocks_[rb.blocks[j]];
-    params[j] = b.x;
-    jac_wanted_[j] = jacobians && !b.constant;
+    jac_wanted_[j] = jacobians && rb.variable[j];
     jv[j].data = jac_wanted_[j] ? jac_ws_[j] : nullptr;
-    jv[j].row_stride = b.tangent;
+    jv[j].row_stride = rb.tangent[j];
   }
-  if (!rb.fn->evaluate(params, r, jv)) return false;
+  if (!rb.fn->evaluate(rb.params, r, jv)) return false;
   const int rows = rb.rows;
   double sq = 0.0;
   for (int i = 0; i < rows; ++i) sq += r[i] * r[i];
@@ -610,9 +611,12 @@ bool Problem::compute_step(double lm_scale, double* model_cost_change) {
   S_.m() = H_.m();
   rhs_ = b_;
   if (damp) {
+    MatrixMap S = S_.m();
+    const ConstMatrixMap H = static_cast<const DenseMatrix&>(H_).m();
     for (int i = 0; i < n_red_; ++i) {
       const double s2 = scale_red_[i] * scale_red_[i];
-      S_.m()(i, i) += lm_scale * std::clamp(H_.m()(i, i) * s2, min_diag_, max_diag_) / s2;
+      d_red_[i] = lm_scale * std::clamp(H(i, i) * s2, min_diag_, max_diag_) / s2;
+      S(i, i) += d_red_[i];
     }
   }
   for (int l = 0; l < num_lm_; ++l) eliminate_landmark(l, lm_scale, S_.m(), rhs_, damp);
@@ -631,12 +635,8 @@ bool Problem::compute_step(double lm_scale, double* model_cost_change) {
   // normal equations (H + D) dx = -g as -0.5 g^T dx + 0.5 dx^T D dx.
   double gdx = b_.dot(dx_);
   double dDd = 0.0;
-  if (damp) {
-    for (int i = 0; i < n_red_; ++i) {
-      const double s2 = scale_red_[i] * scale_red_[i];
-      dDd += dx_[i] * dx_[i] * lm_scale * std::clamp(H_.m()(i, i) * s2, min_diag_, max_diag_) / s2;
-    }
-  }
+  if (damp)
+    for (int i = 0; i < n_red_; ++i) dDd += dx_[i] * dx_[i] * d_red_[i];
   for (int l = 0; l < num_lm_; ++l) {
     const int e = lm_dim_[l];
     const int c0 = lm_cpl_begin_[l];

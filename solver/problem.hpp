@@ -124,6 +124,10 @@ class Problem {
     std::int8_t num_sorted = 0;  // variable reduced blocks, positions sorted by reduced row
     std::int8_t sorted[capacity::kMaxBlocksPerResidual] = {};
     std::int8_t lm_pos = -1;     // position of the variable eliminated block, or -1
+    // Cached by prepare(): value pointers, tangent sizes and variable flags of the blocks.
+    const double* params[capacity::kMaxBlocksPerResidual] = {};
+    std::int8_t tangent[capacity::kMaxBlocksPerResidual] = {};
+    bool variable[capacity::kMaxBlocksPerResidual] = {};
   };
   struct PriorRef {
     const MarginalPrior* prior = nullptr;
@@ -189,6 +193,7 @@ class Problem {
   DenseVector rhs_;
   DenseVector dx_;
   DenseVector scale_red_;
+  DenseVector d_red_;  // LM diagonal of the reduced blocks for the current step
   double dl_[capacity::kMaxEliminatedBlocks][3] = {};
   double winv_[capacity::kMaxEliminatedBlocks][9] = {};  // (H_ll + D)^-1 for e > 1
   double min_diag_ = 1e-6;
