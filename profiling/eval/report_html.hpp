@@ -1,0 +1,56 @@
+#pragma once
+// One self-contained report.html (inline SVG and CSS, no script, no network) of a replay run:
+// top view and x/y/z over time of estimate vs ground truth, position error over time, per-stage
+// timing histograms, features per frame by class, mode timeline. The caller (replay) fills the
+// plain series below; nothing here knows the estimator. Tool code: allocates freely.
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace ums::eval {
+
+struct ReportPositions {
+  std::vector<double> t_s;            // s, same length as p_w_m
+  std::vector<Eigen::Vector3d> p_w_m; // m, world frame (the estimate already aligned to the GT)
+};
+
+struct ReportStageTiming {
+  std::string name;                   // "frontend", "backend", ...
+  std::vector<double> ms;             // one duration per frame, ms
+};
+
+struct ReportFeatureCounts {
+  std::vector<double> t_s;            // s, one entry per frame
+  std::vector<int> n_3d;              // stereo features (triangulated by the stereo pair)
+  std::vector<int> n_2d_left;         // left-only features
+  std::vector<int> n_2d_right;        // right-only features
+};
+
+struct ReportModeChange {
+  double t_s = 0.0;                   // s, start of this mode
+  std::string mode;                   // "IMU_ONLY", "VO", "VIO", "INIT", ...
+};
+
+struct ReportData {
+  std::string title = "UMS-VINS run";
+  std::vector<std::pair<std::string, std::string>> summary;  // key/value table at the top
+  ReportPositions estimate;
+  ReportPositions groundtruth;        // may be empty (no ground truth)
+  std::vector<double> error_t_s;      // s; ATE per matched pose (may be empty)
+  std::vector<double> error_m;        // m
+  std::vector<ReportStageTiming> stage_timings;
+  ReportFeatureCounts features;
+  std::vector<ReportModeChange> modes;  // sorted by t_s
+  double end_t_s = 0.0;               // s, end of the run (closes the last mode span)
+};
+
+// The whole document as a string.
+std::string render_report_html(const ReportData& data);
+
+// Writes render_report_html(data) to path; false with *error set on I/O failure.
+bool write_report_html(const ReportData& data, const std::string& path, std::string* error);
+
+}  // namespace ums::eval
