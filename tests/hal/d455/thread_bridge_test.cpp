@@ -94,7 +94,7 @@ TEST_CASE("ThreadBridge carries IMU and frames between two threads in order with
   CHECK(bridge->frames_dropped() == 0);
 }
 
-TEST_CASE("ThreadBridge drops and counts when the consumer stalls, then recovers; no allocation", "[d455][bridge]") {
+TEST_CASE("ThreadBridge drops and counts when the consumer stalls, then recovers, without allocating", "[d455][bridge]") {
   auto bridge = std::make_unique<ThreadBridge>(kW, kH);
   Source src;
   CheckingSink sink;

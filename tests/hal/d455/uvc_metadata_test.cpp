@@ -51,7 +51,7 @@ TEST_CASE("D4XX metadata: PTS, capture timing at meta+38/+42 and emitter mode ar
   CHECK(m.emitter_mode == 1);
 }
 
-TEST_CASE("UVCH metadata gives PTS only; truncated or inconsistent buffers are refused", "[d455][meta]") {
+TEST_CASE("UVCH metadata gives PTS only, and truncated or inconsistent buffers are refused", "[d455][meta]") {
   auto b = d4xx_buffer(5000u, 100u, 1u, 0u);
   b[10] = 12;  // UVCH: only the 12 standard header bytes
   b.resize(22);
