@@ -318,8 +318,15 @@ int FakeKernel::video_ioctl(Video& v, unsigned long request, void* arg) {
     case UVCIOC_CTRL_QUERY: {
       auto* q = static_cast<uvc_xu_control_query*>(arg);
       if (refuse_xu) return -EIO;
-      if (q->unit != 3 || q->query != UVC_SET_CUR) return -EINVAL;
+      if (q->unit != 3) return -EINVAL;
+      if (q->query == UVC_GET_CUR && q->selector == 1) {
+        if (hwm_reply.size() != q->size) return -EIO;
+        std::memcpy(q->data, hwm_reply.data(), q->size);
+        return 0;
+      }
+      if (q->query != UVC_SET_CUR) return -EINVAL;
       xu_writes[q->selector] = std::vector<std::uint8_t>(q->data, q->data + q->size);
+      if (q->selector == 1) hwm_request = xu_writes[q->selector];
       return 0;
     }
     default:

@@ -76,6 +76,8 @@ class FakeKernel : public Sys {
   std::map<int, std::vector<std::uint8_t>> xu_writes;  // selector -> last bytes written
   std::map<std::uint32_t, std::int32_t> ctrl_writes;  // V4L2 control id -> value
   bool refuse_xu = false;
+  std::vector<std::uint8_t> hwm_request;  // last 1024-byte SET_CUR on selector 1 (HWM tunnel)
+  std::vector<std::uint8_t> hwm_reply;    // what GET_CUR on selector 1 returns (1024 bytes)
   int open_fds() const { return static_cast<int>(fds_.size()); }
   int mapped() const { return mapped_; }
   int polls() const { return polls_; }
