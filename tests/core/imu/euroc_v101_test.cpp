@@ -198,8 +198,9 @@ TEST_CASE("V1_01 real IMU: bias at rest, then 0.5 s preintegrated rotations matc
   // The README quotes ~3 deg between the resting accelerometer and the ground-truth gravity.
   CHECK(tilt_deg < 4.0);
 
-  // Time alignment: shifting the IMU by one or two samples (5, 10 ms) must only make it worse.
-  for (const std::int64_t off : {-10'000'000LL, -5'000'000LL, 5'000'000LL, 10'000'000LL}) {
+  // Time alignment: shifting the IMU by one sample (5 ms) either way must only make it worse
+  // (docs/math-imu.md also lists +-10 ms; left out here to keep the qemu run short).
+  for (const std::int64_t off : {-5'000'000LL, 5'000'000LL}) {
     const double m = median_error_deg(off, nullptr, nullptr);
     std::printf("  offset %+.0f ms: median error %.3f deg\n", 1e-6 * static_cast<double>(off), m);
     CHECK(m > med);
