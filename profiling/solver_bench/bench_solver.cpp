@@ -7,6 +7,7 @@
 // timed apart from the solve; medians over --runs solves. The LAST line printed is JSON.
 //
 //   umsvins_bench_solver [--runs N] [--landmarks N] [--frames N] [--seed N] [--max-iterations N]
+//                        [--fixed-extrinsic 1] [--ours-only 1]
 
 #include <ceres/ceres.h>
 
@@ -153,7 +154,8 @@ std::vector<double> state_of(VioWindow& w) {
 // solve builds a fresh ceres::Problem (as VINS-Fusion does every frame), timed apart.
 class CeresRunner {
  public:
-  CeresRunner(VioWindow& w, const us::SolverOptions& o) : w_(w), o_(o), huber_(w.config.huber_delta) {
+  CeresRunner(VioWindow& w, const us::SolverOptions& o, bool fixed_extrinsic)
+      : w_(w), o_(o), fixed_extrinsic_(fixed_extrinsic), huber_(w.config.huber_delta) {
     for (const auto& r : w.residuals) {
       int amb[4];
       for (int k = 0; k < r.num_blocks; ++k) amb[k] = ambient_of(r.blocks[k].kind);
@@ -176,6 +178,7 @@ class CeresRunner {
     for (int i = 0; i < F; ++i) problem.AddParameterBlock(w.poses[i].data(), 7, &pose_manifold_);
     for (int i = 0; i < F; ++i) problem.AddParameterBlock(w.speed_bias[i].data(), 9);
     problem.AddParameterBlock(w.extrinsic.data(), 7, &pose_manifold_);
+    if (fixed_extrinsic_) problem.SetParameterBlockConstant(w.extrinsic.data());
     for (auto& rho : w.inv_depth) problem.AddParameterBlock(&rho, 1);
     std::vector<double*> blocks;
     for (std::size_t k = 0; k < w.residuals.size(); ++k) {
@@ -230,6 +233,7 @@ class CeresRunner {
  private:
   VioWindow& w_;
   us::SolverOptions o_;
+  bool fixed_extrinsic_;
   PoseManifold pose_manifold_;
   ceres::HuberLoss huber_;
   std::vector<std::unique_ptr<ceres::CostFunction>> costs_;
@@ -274,7 +278,8 @@ int main(int argc, char** argv) {
   // Runs are interleaved (ours, Ceres dense, Ceres sparse, ours, ...) so that the load of the
   // shared machine falls on all three alike.
   auto problem = std::make_unique<us::Problem>();
-  CeresRunner ceres_runner(*w, opt);
+  const bool fixed_extrinsic = arg_int(argc, argv, "--fixed-extrinsic", 0) != 0;
+  CeresRunner ceres_runner(*w, opt, fixed_extrinsic);
   const bool verbose = std::getenv("UMS_BENCH_VERBOSE") != nullptr;
   const bool ours_only = arg_int(argc, argv, "--ours-only", 0) != 0;
   const ceres::LinearSolverType types[2] = {ceres::DENSE_SCHUR, ceres::SPARSE_SCHUR};
@@ -289,7 +294,8 @@ int main(int argc, char** argv) {
     w->reset();
     Sample s;
     const double t0 = cpu_s();
-    if (ums::bench::add_to_problem(*w, *problem) != us::SolverStatus::kOk) {
+    if (ums::bench::add_to_problem(*w, *problem) != us::SolverStatus::kOk ||
+        (fixed_extrinsic && problem->set_constant(2 * cfg.frames, true) != us::SolverStatus::kOk)) {
       std::fprintf(stderr, "problem set-up failed\n");
       return 1;
     }
