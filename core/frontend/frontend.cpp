@@ -34,6 +34,7 @@ void FrontendOptions::validate() const {
   if (levels_2d < 1 || levels_2d > capacity::kMaxPyramidLevels) fail("levels_2d", levels_2d);
   if (levels_3d < 1 || levels_3d > levels_2d) fail("levels_3d", levels_3d);
   if (levels_stereo < 1 || levels_stereo > capacity::kMaxPyramidLevels) fail("levels_stereo", levels_stereo);
+  if (stereo_retry_interval < 1 || stereo_retry_interval > 1000) fail("stereo_retry_interval", stereo_retry_interval);
   if (!(fb_max_px > 0.0f)) fail("fb_max_px", static_cast<double>(fb_max_px));
   if (!(stereo_fb_max_px > 0.0f)) fail("stereo_fb_max_px", static_cast<double>(stereo_fb_max_px));
   if (!(stereo_epipolar_max_px > 0.0f)) fail("stereo_epipolar_max_px", static_cast<double>(stereo_epipolar_max_px));
@@ -249,11 +250,20 @@ void Frontend::match_stereo(FrontendFrameStats* st) {
   int offset_n = 0;
   double sq_sum = 0.0;
   for (LeftTrack& t : left_) {
-    ++st->stereo_attempts;
     // Starting point: the previous match moved with the left flow, else the point at infinity
     // (rotation only) shifted by the mean disparity of the last frame's matches.
-    Eigen::Vector2f inf_px;
+    Eigen::Vector2f inf_px = t.uv;
     const bool inf_ok = cam_[1].project(R_c1_c0_ * t.bearing, &inf_px);
+    // A 2D-left track whose match failed is retried only every stereo_retry_interval frames:
+    // its failure (occlusion, no texture in the right view) rarely changes from one frame to
+    // the next, and the retries were a quarter of the front end's time.
+    if (t.stereo_failed && options_.stereo_retry_interval > 1 &&
+        t.length % static_cast<std::uint32_t>(options_.stereo_retry_interval) != 0) {
+      t.stereo_prev = false;
+      t.right_guess = inf_ok ? Eigen::Vector2f(inf_px + stereo_offset_px_) : t.uv;
+      continue;
+    }
+    ++st->stereo_attempts;
     Eigen::Vector2f guess = t.right_guess;
     t.stereo_prev = t.stereo;
     if (!std::isfinite(guess.x())) guess = inf_ok ? Eigen::Vector2f(inf_px + stereo_offset_px_) : t.uv;
@@ -293,6 +303,7 @@ void Frontend::match_stereo(FrontendFrameStats* st) {
       }
       matched = true;
     }
+    t.stereo_failed = !matched;
     if (!matched) {
       ++(epipolar_failed ? st->stereo_rejected_epipolar : st->stereo_rejected_klt);
       continue;

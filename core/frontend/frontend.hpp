@@ -43,6 +43,7 @@ struct FrontendOptions {
   float fb_max_px = 0.5f;              // px, forward-backward disagreement allowed (temporal)
   float stereo_fb_max_px = 1.0f;       // px, right->left confirmation must land this close
   float stereo_epipolar_max_px = 1.5f; // px in cam1, distance of a 3D match to its epipolar line
+  int stereo_retry_interval = 4;       // frames between stereo retries of a track whose match failed (1 = every frame)
   bool detect_right = true;            // add 2D-right features in uncovered right-image regions
   bool use_ransac = true;              // temporal epipolar RANSAC per camera
   KltOptions klt;
@@ -86,6 +87,7 @@ class Frontend {
     std::uint32_t length = 0;
     bool stereo = false;                 // 3D (matched in the right image) at the last match_stereo
     bool stereo_prev = false;            // scratch: the class before this frame's match
+    bool stereo_failed = false;          // the last stereo attempt failed (retry throttled)
     Eigen::Vector2f uv = Eigen::Vector2f::Zero();        // cam0 px
     Eigen::Vector3f bearing = Eigen::Vector3f::UnitZ();  // cam0
     Eigen::Vector2f xy = Eigen::Vector2f::Zero();        // cam0 normalized
