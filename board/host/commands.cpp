@@ -22,7 +22,8 @@ usage: umsvins <command> [options]
       Print ATE and RPE of a trajectory against ground truth.
   sweep <dataset> --runs N --start-range A:B --out DIR
       Repeat replay from random start times (robustness table).
-  live --config F [--source replay:DIR]      Run on a RealSense D455 (or a recorded source).
+  live [--config F] [--source d455|replay:DIR] [--out DIR] [--seconds S]
+      Run the threaded board app on a RealSense D455 (or a recorded source). Ctrl-C stops it.
   record --out DIR [--seconds S]             Record a D455 to the EuRoC layout.
   budget [--config F] [--dataset DIR]        Print the memory each pipeline component takes.
   version                                    Print the version.
@@ -55,8 +56,8 @@ int run_cli(const std::vector<std::string>& args, std::ostream& out, std::ostrea
     if (command == "simulate") return run_simulate(rest, out, err);
     if (command == "eval") return run_eval(rest, out, err);
     if (command == "sweep") return not_implemented(command, "needs the estimator, issue 7", err);
-    if (command == "live") return not_implemented(command, "D455 live app, issue 9", err);
-    if (command == "record") return not_implemented(command, "D455 recorder, issue 9", err);
+    if (command == "live") return run_live(rest, out, err);
+    if (command == "record") return run_record(rest, out, err);
     if (command == "budget") return run_budget(rest, out, err);
     err << "umsvins: unknown command '" << command << "'\n\n" << kUsage;
     return kExitUsage;

@@ -19,6 +19,8 @@ int run_cli(const std::vector<std::string>& args, std::ostream& out, std::ostrea
 int run_replay(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
 int run_simulate(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
 int run_eval(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
+int run_record(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
+int run_live(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
 int run_budget(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
 
 }  // namespace ums::cli

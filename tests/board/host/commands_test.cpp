@@ -61,7 +61,7 @@ TEST_CASE("umsvins: usage errors exit 64 and name the mistake", "[cli]") {
 
 TEST_CASE("umsvins: capabilities that do not exist yet exit 2 and write nothing", "[cli]") {
   const std::string dir = test::make_temp_dir("cli_not_implemented");
-  for (const char* command : {"sweep", "live", "record"}) {
+  for (const char* command : {"sweep"}) {
     const Run r = run({command, "--out", dir});
     INFO(command);
     CHECK(r.code == kExitNotImplemented);
@@ -83,6 +83,40 @@ TEST_CASE("umsvins budget measures every component it lists", "[cli]") {
   const double pipeline_bytes = std::stod(r.out.substr(at + 15));
   CHECK(pipeline_bytes > 1e6);   // pyramids of two 752x480 images alone are over 1 MB
   CHECK(pipeline_bytes < 64e6);  // and the whole pipeline fits a small board comfortably
+}
+
+TEST_CASE("umsvins record without a D455 fails cleanly and says why", "[cli]") {
+  const std::string dir = test::make_temp_dir("cli_record");
+  const Run r = run({"record", "--out", dir + "/rec", "--seconds", "1"});
+  CHECK(r.code == kExitFailure);
+  CHECK(r.err.find("umsvins record: ") != std::string::npos);
+  CHECK_FALSE(std::filesystem::exists(dir + "/rec/mav0"));  // nothing half-written
+}
+
+TEST_CASE("umsvins live --source replay: the threaded path sees what the single-threaded replay sees",
+          "[cli][real]") {
+  const std::string replay_dir = test::make_temp_dir("cli_live_replay");
+  const std::string live_dir = test::make_temp_dir("cli_live_live");
+  const Run replay = run({"replay", test::euroc_micro_dir(), "--out", replay_dir, "--duration", "1.0",
+                          "--quiet"});
+  REQUIRE(replay.code == kExitOk);
+  const Run live = run({"live", "--source", "replay:" + test::euroc_micro_dir(), "--duration", "1.0",
+                        "--out", live_dir});
+  INFO(live.err);
+  REQUIRE(live.code == kExitOk);
+  CHECK(live.out.find("ring overflows: 0 frames, 0 IMU samples") != std::string::npos);
+
+  // Same frames, same IMU, same front-end output: the features block must be identical.
+  const auto block = [](const std::string& stats, const char* key) {
+    const std::size_t a = stats.find(key);
+    REQUIRE(a != std::string::npos);
+    return stats.substr(a, stats.find('}', a) - a);
+  };
+  const std::string replay_stats = read_all(replay_dir + "/stats.json");
+  const std::string live_stats = read_all(live_dir + "/stats.json");
+  CHECK(block(live_stats, "\"features\"") == block(replay_stats, "\"features\""));
+  CHECK(live_stats.find("\"frames\": 21") != std::string::npos);
+  CHECK(replay_stats.find("\"frames\": 21") != std::string::npos);
 }
 
 TEST_CASE("umsvins replay: a missing dataset fails with its path", "[cli]") {

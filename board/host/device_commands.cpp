@@ -1,0 +1,227 @@
+// umsvins record and umsvins live: the D455 (or, for live, a recorded source) into the pipeline.
+//
+// live runs the threads of the board app: a capture thread pushes into a lock-free bridge, the
+// pipeline thread drains it. SIGINT stops both cleanly and the stats are still written.
+
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include "board/config/app_config.hpp"
+#include "board/host/cli_args.hpp"
+#include "board/host/commands.hpp"
+#include "board/host/replay_pipeline.hpp"
+#include "core/common/version.hpp"
+#include "hal/d455/d455_device.hpp"
+#include "hal/d455/nominal_calibration.hpp"
+#include "hal/d455/realtime.hpp"
+#include "hal/d455/record_euroc.hpp"
+#include "hal/d455/recorder.hpp"
+#include "hal/d455/sys.hpp"
+#include "hal/d455/thread_bridge.hpp"
+#include "hal/replay/euroc_reader.hpp"
+#include "profiling/alloc_counter.hpp"
+#include "profiling/json_writer.hpp"
+
+namespace ums::cli {
+namespace {
+
+std::atomic<bool> g_stop{false};  // set by SIGINT only: the one global a signal handler needs
+
+extern "C" void on_sigint(int) { g_stop.store(true); }
+
+class SigintScope {
+ public:
+  SigintScope() {
+    g_stop.store(false);
+    previous_ = std::signal(SIGINT, on_sigint);
+  }
+  ~SigintScope() { std::signal(SIGINT, previous_); }
+
+ private:
+  void (*previous_)(int) = SIG_DFL;
+};
+
+d455::D455Options device_options_from(const AppConfig& config) {
+  d455::D455Options o;
+  o.camera.width = config.rig.cam[0].width;
+  o.camera.height = config.rig.cam[0].height;
+  o.camera.fps = static_cast<int>(config.rig.cam[0].rate_hz + 0.5);
+  o.validate();
+  return o;
+}
+
+AppConfig device_config(const Args& args, std::ostream& err) {
+  const RigCalibration nominal = d455::d455_nominal_calibration(848, 480, 30.0, 400.0);
+  std::vector<std::string> warnings;
+  AppConfig config = args.get("config") ? load_config(*args.get("config"), nominal, &warnings)
+                                        : config_from_calibration(nominal);
+  for (const std::string& w : warnings) err << "warning: " << w << "\n";
+  return config;
+}
+
+// A replay source may wait for the consumer (a sensor cannot): each frame goes in only once the
+// pipeline has taken everything before it, so the threaded run sees exactly what a
+// single-threaded replay sees, and the bridge never overflows for want of speed.
+class BackpressureSink final : public MeasurementSink {
+ public:
+  explicit BackpressureSink(d455::ThreadBridge* bridge) : bridge_(bridge) {}
+  void on_imu(const ImuSample& s) override { bridge_->on_imu(s); }
+  void on_stereo(const StereoFrame& f) override {
+    while (bridge_->pending() > 0 && !g_stop.load()) std::this_thread::sleep_for(std::chrono::microseconds(200));
+    bridge_->on_stereo(f);
+  }
+
+ private:
+  d455::ThreadBridge* bridge_;
+};
+
+void write_text(const std::filesystem::path& path, const std::string& text) {
+  std::ofstream f(path);
+  f << text;
+  if (!f) throw std::runtime_error(path.string() + ": cannot write");
+}
+
+}  // namespace
+
+int run_record(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
+  const Args args("record", argv, {}, {"out", "seconds", "config"});
+  args.require_positionals(0, "");
+  const std::string out_dir = args.require("out");
+  d455::RecordOptions record_options;
+  record_options.seconds = args.get_double("seconds", 0.0);
+  record_options.validate();
+  const AppConfig config = device_config(args, err);
+
+  d455::LinuxSys sys;
+  const d455::SysFs fs;
+  d455::D455Device device(sys, fs, device_options_from(config));
+  std::string error;
+  if (device.open(&error) != Status::kOk) {
+    err << "umsvins record: " << error << "\n";
+    return kExitFailure;
+  }
+  SigintScope sigint;
+  d455::RecordSummary summary;
+  const Status st = d455::record_euroc(device, config.rig, out_dir, record_options, &g_stop, &summary, &error);
+  out << "record: " << summary.frames << " stereo pairs, " << summary.imu_samples << " IMU samples in "
+      << summary.duration_s << " s, " << summary.restarts << " stream restarts -> " << out_dir << "\n";
+  if (st != Status::kOk) {
+    err << "umsvins record: " << error << " (what was recorded is kept)\n";
+    return kExitFailure;
+  }
+  return kExitOk;
+}
+
+int run_live(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
+  const Args args("live", argv, {"quiet"}, {"config", "source", "out", "seconds", "duration"});
+  args.require_positionals(0, "");
+  const std::filesystem::path out_dir = args.get_or("out", "out/live");
+  const std::string source = args.get_or("source", "d455");
+  const double seconds = args.get_double("seconds", 0.0);
+
+  std::unique_ptr<hal::EurocReader> reader;
+  std::unique_ptr<d455::LinuxSys> sys;
+  std::unique_ptr<d455::D455Device> device;
+  AppConfig config;
+  if (source.rfind("replay:", 0) == 0) {
+    hal::EurocReaderOptions reader_options;
+    reader_options.duration_s = args.get_double("duration", 0.0);
+    reader = std::make_unique<hal::EurocReader>();
+    reader->open(source.substr(7), reader_options);
+    std::vector<std::string> warnings;
+    config = args.get("config") ? load_config(*args.get("config"), reader->calibration(), &warnings)
+                                : config_from_calibration(reader->calibration());
+    for (const std::string& w : warnings) err << "warning: " << w << "\n";
+  } else if (source == "d455") {
+    config = device_config(args, err);
+    sys = std::make_unique<d455::LinuxSys>();
+    device = std::make_unique<d455::D455Device>(*sys, d455::SysFs(), device_options_from(config));
+    std::string error;
+    if (device->open(&error) != Status::kOk || device->start(&error) != Status::kOk) {
+      err << "umsvins live: " << error << "\n";
+      return kExitFailure;
+    }
+  } else {
+    throw UsageError("umsvins live: --source must be d455 or replay:DIR, got '" + source + "'");
+  }
+  std::filesystem::create_directories(out_dir);
+
+  AllocScope startup_allocs;
+  ReplayPipeline pipeline(config, ReplayPipelineOptions{});
+  pipeline.set_static_bytes(static_cast<std::size_t>(startup_allocs.bytes()) + sizeof(ReplayPipeline));
+  auto bridge = std::make_unique<d455::ThreadBridge>(config.rig.cam[0].width, config.rig.cam[0].height);
+
+  SigintScope sigint;
+  std::atomic<bool> producer_done{false};
+  Status producer_status = Status::kOk;
+  std::string producer_error;
+  const auto start = std::chrono::steady_clock::now();
+
+  std::thread capture([&] {
+    if (reader) {
+      BackpressureSink sink(bridge.get());
+      producer_status = reader->push_all(sink);
+      if (producer_status != Status::kOk) producer_error = reader->error();
+    } else {
+      d455::set_realtime_priority(10);  // best effort: refused without CAP_SYS_NICE
+      while (!g_stop.load()) {
+        if (seconds > 0.0 &&
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() >= seconds) {
+          break;
+        }
+        const Status st = device->poll_once(*bridge, 200);
+        if (st == Status::kIoError) {
+          producer_status = st;
+          producer_error = "the D455 stopped delivering (unplugged?)";
+          break;
+        }
+      }
+      device->stop();
+    }
+    producer_done.store(true);
+  });
+
+  // This thread runs the pipeline: drain until the producer is done and the bridge is empty.
+  for (;;) {
+    const bool done = producer_done.load();
+    if (bridge->drain(pipeline) == 0) {
+      if (done && bridge->pending() == 0) break;
+      std::this_thread::sleep_for(std::chrono::microseconds(500));
+    }
+  }
+  capture.join();
+
+  const ReplaySummary summary = pipeline.summary();
+  JsonWriter w;
+  w.begin_object();
+  w.value("version", version_string());
+  w.value("source", source);
+  w.value("frames", summary.frames);
+  w.value("imu_samples", summary.imu_samples);
+  w.value("duration_s", summary.duration_s);
+  w.value("processing_s", summary.processing_s, 4);
+  pipeline.write_stats(w);
+  w.begin_object("bridge")
+      .value("imu_dropped", bridge->imu_dropped())
+      .value("frames_dropped", bridge->frames_dropped())
+      .end_object();
+  w.end_object();
+  write_text(out_dir / "stats.json", w.str());
+
+  out << "live: " << summary.frames << " stereo pairs, " << summary.imu_samples << " IMU samples from "
+      << source << "; ring overflows: " << bridge->frames_dropped() << " frames, " << bridge->imu_dropped()
+      << " IMU samples\n";
+  pipeline.print_summary(out);
+  out << "live: no poses: the estimator is not implemented yet (issue 7)\n";
+  if (producer_status != Status::kOk) {
+    err << "umsvins live: " << producer_error << "\n";
+    return kExitFailure;
+  }
+  return kExitOk;
+}
+
+}  // namespace ums::cli
