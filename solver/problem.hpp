@@ -13,7 +13,7 @@
 //
 // Parameter values stay in caller memory (a block is a pointer to its ambient values); the solver
 // writes the optimized values there. Set-up (add_*) may be repeated after clear(); solve(),
-// evaluate_cost() and marginalize() allocate nothing. The object is large (about 1.5 MB at the
+// evaluate_cost() and marginalize() allocate nothing. The object is large (about 4 MB at the
 // capacities of solver/capacity.hpp): create it once at start-up, never on a small stack.
 
 #include <Eigen/Cholesky>
