@@ -1,0 +1,404 @@
+#include "hal/sim/simulate.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <random>
+#include <sstream>
+#include <stdexcept>
+
+#include "core/math/so3.hpp"
+#include "hal/replay/euroc_writer.hpp"
+
+namespace ums::sim {
+namespace {
+
+constexpr double kKnotDt = 0.05;  // s: control points at the 20 Hz ground-truth rate
+
+Eigen::Isometry3d make_T(const double m[16]) {
+  Eigen::Matrix4d M;
+  for (int i = 0; i < 16; ++i) M(i / 4, i % 4) = m[i];
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::Quaterniond(M.block<3, 3>(0, 0)).normalized().toRotationMatrix();
+  T.translation() = M.block<3, 1>(0, 3);
+  return T;
+}
+
+struct Sample {
+  std::int64_t t_ns;
+  Eigen::Vector3d p_w_b;
+  Eigen::Quaterniond q_w_b;
+};
+
+std::vector<Sample> read_groundtruth_body(const std::string& path, const Eigen::Isometry3d& T_b_c0) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error(path + ": cannot open");
+  std::vector<Sample> out;
+  std::string line;
+  int n = 0;
+  while (std::getline(in, line)) {
+    ++n;
+    if (line.empty() || line[0] == '#') continue;
+    std::vector<double> v;
+    std::stringstream ss(line);
+    std::string cell;
+    std::int64_t t_ns = 0;
+    bool first = true;
+    while (std::getline(ss, cell, ',')) {
+      if (first) {
+        t_ns = std::strtoll(cell.c_str(), nullptr, 10);
+        first = false;
+      } else {
+        char* end = nullptr;
+        v.push_back(std::strtod(cell.c_str(), &end));
+        if (end == cell.c_str()) throw std::runtime_error(path + ":" + std::to_string(n) + ": not a number '" + cell + "'");
+      }
+    }
+    if (v.size() < 7) throw std::runtime_error(path + ":" + std::to_string(n) + ": needs >= 8 columns");
+    Sample s;
+    s.t_ns = t_ns;
+    Eigen::Quaterniond q(v[3], v[4], v[5], v[6]);
+    q.normalize();
+    if (v.size() == 7) {
+      // Shared *_GT.txt: cam0 position, q = R_CW. Body: T_w_b = T_w_c0 * T_b_c0^-1.
+      Eigen::Isometry3d T_w_c = Eigen::Isometry3d::Identity();
+      T_w_c.linear() = q.conjugate().toRotationMatrix();
+      T_w_c.translation() = Eigen::Vector3d(v[0], v[1], v[2]);
+      const Eigen::Isometry3d T_w_b = T_w_c * T_b_c0.inverse();
+      s.p_w_b = T_w_b.translation();
+      s.q_w_b = Eigen::Quaterniond(T_w_b.rotation());
+    } else {
+      s.p_w_b = Eigen::Vector3d(v[0], v[1], v[2]);
+      s.q_w_b = q;
+    }
+    if (!out.empty() && t_ns <= out.back().t_ns) continue;
+    out.push_back(s);
+  }
+  if (out.size() < 8) throw std::runtime_error(path + ": fewer than 8 poses");
+  return out;
+}
+
+// Built-in: a 70 s figure-eight at 1-1.5 m/s with height changes, camera looking along the
+// direction of travel (tilted 15 deg down), body from the camera through T_b_c0.
+std::vector<Sample> builtin_trajectory(const Eigen::Isometry3d& T_b_c0) {
+  std::vector<Sample> out;
+  for (int k = 0; k <= 1400; ++k) {
+    const double t = k * kKnotDt;
+    const double w = 2.0 * M_PI / 35.0;
+    const Eigen::Vector3d p(3.0 * std::sin(w * t), 2.0 * std::sin(2.0 * w * t), 1.4 + 0.4 * std::sin(0.7 * w * t));
+    const Eigen::Vector3d v(3.0 * w * std::cos(w * t), 4.0 * w * std::cos(2.0 * w * t), 0.0);
+    const double yaw = std::atan2(v.y(), v.x()) + 0.4 * std::sin(0.5 * t);
+    const Eigen::Vector3d z(std::cos(yaw) * std::cos(0.26), std::sin(yaw) * std::cos(0.26), -std::sin(0.26));
+    const Eigen::Vector3d x = Eigen::Vector3d::UnitZ().cross(z).normalized() * -1.0;
+    Eigen::Matrix3d R_w_c;
+    R_w_c.col(0) = x;
+    R_w_c.col(1) = z.cross(x);
+    R_w_c.col(2) = z;
+    Eigen::Isometry3d T_w_c = Eigen::Isometry3d::Identity();
+    T_w_c.linear() = R_w_c;
+    T_w_c.translation() = p;
+    const Eigen::Isometry3d T_w_b = T_w_c * T_b_c0.inverse();
+    out.push_back({1'000'000'000'000LL + static_cast<std::int64_t>(k) * 50'000'000LL, T_w_b.translation(),
+                   Eigen::Quaterniond(T_w_b.rotation())});
+  }
+  return out;
+}
+
+Sample interpolate(const std::vector<Sample>& s, std::int64_t t_ns) {
+  auto it = std::lower_bound(s.begin(), s.end(), t_ns, [](const Sample& a, std::int64_t t) { return a.t_ns < t; });
+  if (it == s.begin()) return s.front();
+  if (it == s.end()) return s.back();
+  const Sample& b = *it;
+  const Sample& a = *(it - 1);
+  const double f = static_cast<double>(t_ns - a.t_ns) / static_cast<double>(b.t_ns - a.t_ns);
+  return {t_ns, a.p_w_b + f * (b.p_w_b - a.p_w_b), a.q_w_b.slerp(f, b.q_w_b)};
+}
+
+}  // namespace
+
+bool parse_scenario(const std::string& name, Scenario* scenario) {
+  for (Scenario s : kAllScenarios) {
+    if (name == scenario_name(s)) {
+      *scenario = s;
+      return true;
+    }
+  }
+  return false;
+}
+
+const char* scenario_name(Scenario s) {
+  switch (s) {
+    case Scenario::kNominal: return "nominal";
+    case Scenario::kStandstillStart: return "standstill-start";
+    case Scenario::kUniformStart: return "uniform-start";
+    case Scenario::kDarkStart: return "dark-start";
+    case Scenario::kTextureless: return "textureless";
+    case Scenario::kImpulses: return "impulses";
+    case Scenario::kRightDropout: return "right-dropout";
+  }
+  return "?";
+}
+
+bool parse_camera_preset(const std::string& name, CameraPreset* preset) {
+  if (name == "euroc") *preset = CameraPreset::kEuroc;
+  else if (name == "d455") *preset = CameraPreset::kD455;
+  else return false;
+  return true;
+}
+
+RigCalibration rig_preset(CameraPreset preset) {
+  RigCalibration rig;
+  if (preset == CameraPreset::kEuroc) {
+    static const double T0[16] = {0.0148655429818, -0.999880929698, 0.00414029679422, -0.0216401454975,
+                                  0.999557249008, 0.0149672133247, 0.025715529948, -0.064676986768,
+                                  -0.0257744366974, 0.00375618835797, 0.999660727178, 0.00981073058949,
+                                  0, 0, 0, 1};
+    static const double T1[16] = {0.0125552670891, -0.999755099723, 0.0182237714554, -0.0198435579556,
+                                  0.999598781151, 0.0130119051815, 0.0251588363115, 0.0453689425024,
+                                  -0.0253898008918, 0.0179005838253, 0.999517347078, 0.00786212447038,
+                                  0, 0, 0, 1};
+    const double K[2][4] = {{458.654, 457.296, 367.215, 248.375}, {457.587, 456.134, 379.999, 255.238}};
+    const std::array<double, 4> D[2] = {{-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05},
+                                        {-0.28368365, 0.07451284, -0.00010473, -3.55590700e-05}};
+    for (int c = 0; c < 2; ++c) {
+      CameraCalibration& cc = rig.cam[c];
+      cc.model = CameraModel::kPinholeRadTan;
+      cc.width = 752;
+      cc.height = 480;
+      cc.rate_hz = 20.0;
+      cc.fx = K[c][0]; cc.fy = K[c][1]; cc.cx = K[c][2]; cc.cy = K[c][3];
+      cc.distortion = D[c];
+      cc.T_b_c = make_T(c == 0 ? T0 : T1);
+    }
+    rig.imu = ImuCalibration{};  // ADIS16448 densities (EuRoC imu0/sensor.yaml) are the defaults
+    return rig;
+  }
+  // D455: IR pair at 848x480 (HFOV ~87 deg -> fx ~ 424 / tan(43.5 deg) ~ 447 px), rectified
+  // (zero distortion), 95 mm baseline; IMU axes taken parallel to the camera's (RealSense reports
+  // its IMU in the depth frame's orientation), small lever arm. Not a device calibration.
+  for (int c = 0; c < 2; ++c) {
+    CameraCalibration& cc = rig.cam[c];
+    cc.model = CameraModel::kPinholeRadTan;
+    cc.width = 848;
+    cc.height = 480;
+    cc.rate_hz = 20.0;
+    cc.fx = cc.fy = 430.0;
+    cc.cx = 424.0;
+    cc.cy = 240.0;
+    cc.distortion = {0.0, 0.0, 0.0, 0.0};
+    cc.T_b_c = Eigen::Isometry3d::Identity();
+    cc.T_b_c.translation() = Eigen::Vector3d(-0.03 + 0.095 * c, 0.005, 0.016);
+  }
+  // BMI055: gyro 0.014 deg/s/sqrt(Hz), accel 150 ug/sqrt(Hz) (datasheet); random walks assumed.
+  rig.imu.gyro_noise_density = 0.014 * M_PI / 180.0;
+  rig.imu.accel_noise_density = 150e-6 * 9.81;
+  rig.imu.gyro_random_walk = 2.0e-5;
+  rig.imu.accel_random_walk = 3.0e-4;
+  return rig;
+}
+
+bool SimOptions::validate(std::string* error) const {
+  auto bad = [&](const std::string& m) {
+    if (error) *error = m;
+    return false;
+  };
+  if (out_dir.empty()) return bad("simulate: out_dir is required");
+  if (!(camera_rate_hz > 0.0 && camera_rate_hz <= 200.0)) return bad("simulate: camera_rate_hz must be in (0, 200] Hz");
+  if (!(imu_rate_hz >= camera_rate_hz && imu_rate_hz <= 2000.0)) return bad("simulate: imu_rate_hz must be in [camera rate, 2000] Hz");
+  if (!(gravity_m_s2 > 0.0)) return bad("simulate: gravity_m_s2 must be > 0");
+  if (!(start_s >= 0.0)) return bad("simulate: start_s must be >= 0");
+  if (!(initial_gyro_bias_sigma_rad_s >= 0.0 && initial_accel_bias_sigma_m_s2 >= 0.0)) return bad("simulate: bias sigmas must be >= 0");
+  return world.validate(error) && render.validate(error);
+}
+
+SimTrajectory make_trajectory(const SimOptions& o, const RigCalibration& rig) {
+  const Eigen::Isometry3d& T_b_c0 = rig.cam[0].T_b_c;
+  const std::vector<Sample> raw =
+      o.trajectory_path.empty() ? builtin_trajectory(T_b_c0) : read_groundtruth_body(o.trajectory_path, T_b_c0);
+  const std::int64_t dt_ns = static_cast<std::int64_t>(kKnotDt * 1e9);
+  const std::int64_t first = raw.front().t_ns + static_cast<std::int64_t>(o.start_s * 1e9);
+  std::int64_t last = raw.back().t_ns;
+  if (o.duration_s > 0.0) last = std::min(last, first + static_cast<std::int64_t>(o.duration_s * 1e9));
+  if (last - first < 4 * dt_ns) throw std::runtime_error("simulate: the cut leaves less than 0.2 s of trajectory");
+  // Control points: uniform knots covering [first - dt, last + dt] (the spline is valid from the
+  // second to the second-last knot).
+  std::vector<Eigen::Quaterniond> q;
+  std::vector<Eigen::Vector3d> p;
+  for (std::int64_t t = first - dt_ns; t <= last + dt_ns; t += dt_ns) {
+    const Sample s = interpolate(raw, t);
+    // Keep the quaternion hemisphere continuous (relative logs are taken anyway).
+    Eigen::Quaterniond qs = s.q_w_b;
+    if (!q.empty() && q.back().dot(qs) < 0.0) qs.coeffs() *= -1.0;
+    q.push_back(qs);
+    p.push_back(s.p_w_b);
+  }
+  int prefix = 0;
+  if (o.scenario == Scenario::kStandstillStart) {
+    prefix = static_cast<int>(std::lround(5.0 / kKnotDt));
+    q.insert(q.begin(), static_cast<std::size_t>(prefix), q.front());
+    p.insert(p.begin(), static_cast<std::size_t>(prefix), p.front());
+  } else if (o.scenario == Scenario::kUniformStart) {
+    // Constant velocity: the flight's initial velocity, at least 0.5 m/s (EuRoC flights start at
+    // rest); horizontal direction of the first 2 s of travel when the start is at rest.
+    prefix = static_cast<int>(std::lround(6.0 / kKnotDt));
+    Eigen::Vector3d v = (p[2] - p[0]) / (2.0 * kKnotDt);
+    if (v.norm() < 0.5) {
+      Eigen::Vector3d dir = p[std::min<std::size_t>(40, p.size() - 1)] - p[0];
+      dir.z() = 0.0;
+      if (dir.norm() < 1e-3) dir = Eigen::Vector3d::UnitX();
+      v = 0.5 * dir.normalized();
+    }
+    std::vector<Eigen::Quaterniond> qp(static_cast<std::size_t>(prefix), q.front());
+    std::vector<Eigen::Vector3d> pp;
+    for (int k = prefix; k >= 1; --k) pp.push_back(p.front() - v * (k * kKnotDt));
+    q.insert(q.begin(), qp.begin(), qp.end());
+    p.insert(p.begin(), pp.begin(), pp.end());
+  }
+  SimTrajectory tr;
+  const std::int64_t t0 = first - dt_ns - static_cast<std::int64_t>(prefix) * dt_ns;
+  tr.spline.init(t0, kKnotDt, std::move(q), std::move(p));
+  tr.t_begin_ns = tr.spline.start_ns();
+  tr.t_end_ns = tr.spline.end_ns();
+  tr.flight_begin_ns = first;
+  return tr;
+}
+
+ImuTrack generate_imu(const SimTrajectory& tr, const ImuCalibration& imu, const SimOptions& o) {
+  ImuTrack track;
+  std::mt19937_64 rng(o.seed * 0x9E3779B97F4A7C15ULL + 17);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  auto nvec = [&] { return Eigen::Vector3d(n01(rng), n01(rng), n01(rng)); };
+  const double dt = 1.0 / o.imu_rate_hz;
+  const std::int64_t dt_ns = static_cast<std::int64_t>(std::llround(1e9 / o.imu_rate_hz));
+  // Discrete white noise std = density * sqrt(rate); bias random walk step = rw * sqrt(dt).
+  const double sg = imu.gyro_noise_density / std::sqrt(dt), sa = imu.accel_noise_density / std::sqrt(dt);
+  const double rg = imu.gyro_random_walk * std::sqrt(dt), ra = imu.accel_random_walk * std::sqrt(dt);
+  Eigen::Vector3d bg = o.initial_gyro_bias_sigma_rad_s * nvec();
+  Eigen::Vector3d ba = o.initial_accel_bias_sigma_m_s2 * nvec();
+  const Eigen::Vector3d g_w(0.0, 0.0, -o.gravity_m_s2);
+  std::vector<double> yaw_rate;
+  for (std::int64_t t = tr.t_begin_ns; t <= tr.t_end_ns; t += dt_ns) {
+    const SplineState s = tr.spline.evaluate(t);
+    ImuSample m;
+    m.t_ns = t;
+    m.gyro_rad_s = s.omega_b_rad_s + bg + sg * nvec();
+    m.accel_m_s2 = s.q_w_b.conjugate() * (s.a_w_b - g_w) + ba + sa * nvec();
+    hal::GroundTruthState gt;
+    gt.t_ns = t;
+    gt.p_w_b = s.p_w_b;
+    gt.q_w_b = s.q_w_b;
+    gt.v_w_b = s.v_w_b;
+    gt.gyro_bias_rad_s = bg;
+    gt.accel_bias_m_s2 = ba;
+    track.samples.push_back(m);
+    track.truth.push_back(gt);
+    yaw_rate.push_back(std::abs((s.q_w_b * s.omega_b_rad_s).z()));
+    bg += rg * nvec();
+    ba += ra * nvec();
+  }
+  if (o.scenario == Scenario::kImpulses && !track.samples.empty()) {
+    // One impulse per 10 s of flight (at least 3), at the highest yaw rates, >= 1 s apart.
+    const double dur_s = static_cast<double>(tr.t_end_ns - tr.t_begin_ns) * 1e-9;
+    const std::size_t want = static_cast<std::size_t>(std::max(3.0, std::floor(dur_s / 10.0)));
+    std::vector<std::size_t> order(yaw_rate.size());
+    for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return yaw_rate[a] > yaw_rate[b]; });
+    const std::size_t sep = static_cast<std::size_t>(o.imu_rate_hz);
+    std::uniform_real_distribution<double> ua(30.0, 80.0), ug(5.0, 10.0);
+    for (std::size_t idx : order) {
+      if (track.impulse_index.size() >= want) break;
+      bool far = true;
+      for (std::size_t j : track.impulse_index) far = far && (idx > j ? idx - j : j - idx) >= sep;
+      if (!far) continue;
+      track.impulse_index.push_back(idx);
+      track.samples[idx].accel_m_s2 += ua(rng) * nvec().normalized();
+      track.samples[idx].gyro_rad_s += ug(rng) * nvec().normalized();
+    }
+    std::sort(track.impulse_index.begin(), track.impulse_index.end());
+  }
+  return track;
+}
+
+int simulate(const SimOptions& o, std::string* error, const ProgressCallback& progress) {
+  if (!o.validate(error)) return 1;
+  try {
+    RigCalibration rig = rig_preset(o.camera_preset);
+    for (auto& c : rig.cam) c.rate_hz = o.camera_rate_hz;
+    rig.imu.rate_hz = o.imu_rate_hz;
+    rig.imu.gravity_m_s2 = o.gravity_m_s2;
+    const SimTrajectory tr = make_trajectory(o, rig);
+    const ImuTrack imu = generate_imu(tr, rig.imu, o);
+
+    const std::int64_t frame_dt_ns = static_cast<std::int64_t>(std::llround(1e9 / o.camera_rate_hz));
+    int total = static_cast<int>((tr.t_end_ns - tr.t_begin_ns) / frame_dt_ns) + 1;
+    if (o.max_frames >= 0) total = std::min(total, o.max_frames);
+    std::vector<Eigen::Vector3d> path;
+    for (std::int64_t t = tr.t_begin_ns; t <= tr.t_end_ns; t += 100'000'000LL) path.push_back(tr.spline.evaluate(t).p_w_b);
+    WorldOptions wo = o.world;
+    wo.seed = static_cast<std::uint32_t>(o.seed * 2654435761ULL);
+    wo.textureless_walls = o.world.textureless_walls || o.scenario == Scenario::kTextureless;
+    // No world to build when no frame is rendered (IMU-only runs in tests).
+    if (total == 0) wo.boxes = 0;
+    const World world = total > 0 ? make_world(path, wo) : World{};
+    std::unique_ptr<StereoRenderer> renderer;
+    if (total > 0) renderer = std::make_unique<StereoRenderer>(world, rig);
+
+    std::filesystem::create_directories(o.out_dir);
+    hal::EurocWriter writer;
+    writer.open(o.out_dir, rig, true);
+    for (std::size_t i = 0; i < imu.samples.size(); ++i) {
+      if (writer.write_imu(imu.samples[i]) != Status::kOk || writer.write_groundtruth(imu.truth[i]) != Status::kOk) {
+        throw std::runtime_error(writer.error());
+      }
+    }
+    const double mid_s = 0.5 * static_cast<double>(tr.t_end_ns - tr.t_begin_ns) * 1e-9;
+    std::vector<std::uint8_t> left(static_cast<std::size_t>(rig.cam[0].width) * rig.cam[0].height);
+    std::vector<std::uint8_t> right(static_cast<std::size_t>(rig.cam[1].width) * rig.cam[1].height);
+    for (int k = 0; k < total; ++k) {
+      const std::int64_t t = tr.t_begin_ns + k * frame_dt_ns;
+      const double ts = static_cast<double>(t - tr.t_begin_ns) * 1e-9;
+      const SplineState s = tr.spline.evaluate(t);
+      Eigen::Isometry3d T_w_b = Eigen::Isometry3d::Identity();
+      T_w_b.linear() = s.q_w_b.toRotationMatrix();
+      T_w_b.translation() = s.p_w_b;
+      RenderOptions ro = o.render;
+      if (o.exposure_change) ro.exposure_gain *= 1.0 + 0.35 * std::sin(2.0 * M_PI * ts / 8.0);
+      renderer->render_stereo(T_w_b, ro, o.seed * 1000003ULL + static_cast<std::uint64_t>(k), left.data(), right.data());
+      if (o.scenario == Scenario::kDarkStart && ts < 3.0) {
+        std::fill(left.begin(), left.end(), 0);
+        std::fill(right.begin(), right.end(), 0);
+      }
+      if (o.scenario == Scenario::kRightDropout && ts >= mid_s - 2.0 && ts < mid_s + 2.0) {
+        std::fill(right.begin(), right.end(), 0);
+      }
+      StereoFrame f;
+      f.t_ns = t;
+      f.seq = static_cast<std::uint64_t>(k);
+      f.left = ImageView{left.data(), rig.cam[0].width, rig.cam[0].height, rig.cam[0].width};
+      f.right = ImageView{right.data(), rig.cam[1].width, rig.cam[1].height, rig.cam[1].width};
+      if (writer.write_stereo(f) != Status::kOk) throw std::runtime_error(writer.error());
+      if (progress) progress(k + 1, total);
+    }
+    writer.close();
+    std::ofstream ev(o.out_dir + "/sim_events.csv");
+    ev << "#scenario " << scenario_name(o.scenario) << ", seed " << o.seed << "\n#t_ns,event\n";
+    ev << tr.t_begin_ns << ",begin\n" << tr.flight_begin_ns << ",flight_begin\n";
+    for (std::size_t i : imu.impulse_index) ev << imu.samples[i].t_ns << ",imu_impulse\n";
+    if (o.scenario == Scenario::kDarkStart) ev << tr.t_begin_ns + 3'000'000'000LL << ",dark_end\n";
+    if (o.scenario == Scenario::kRightDropout) {
+      const auto mid_ns = tr.t_begin_ns + static_cast<std::int64_t>(mid_s * 1e9);
+      ev << mid_ns - 2'000'000'000LL << ",right_dropout_begin\n" << mid_ns + 2'000'000'000LL << ",right_dropout_end\n";
+    }
+    ev << tr.t_end_ns << ",end\n";
+    if (!ev) throw std::runtime_error(o.out_dir + "/sim_events.csv: write failed");
+  } catch (const std::exception& e) {
+    if (error) *error = e.what();
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace ums::sim

@@ -1,0 +1,89 @@
+#pragma once
+// The simulator backend (hal/sim): flies a real (or built-in) trajectory through a procedural
+// room and writes an EuRoC-layout dataset (both cameras, IMU, state_groundtruth_estimate0 of the
+// body = IMU frame, sensor.yaml files) through hal/replay's EurocWriter. Deterministic per seed.
+//
+// Pipeline: ground truth (shared *_GT.txt: cam0, q = R_CW; or EuRoC data.csv: body) -> body poses
+// via T_b_c0 -> uniform 20 Hz control points -> cut [start, start + duration] -> scenario prefix
+// -> PoseSpline (C2) -> camera poses at camera_rate_hz, IMU at imu_rate_hz from the spline's
+// analytic derivatives + gravity + white noise + bias random walk -> renderer -> writer.
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "core/common/calibration.hpp"
+#include "core/common/imu_sample.hpp"
+#include "hal/replay/euroc_groundtruth.hpp"
+#include "hal/sim/renderer.hpp"
+#include "hal/sim/spline.hpp"
+
+namespace ums::sim {
+
+enum class Scenario : std::uint8_t {
+  kNominal,
+  kStandstillStart,  // 5 s at rest before the flight
+  kUniformStart,     // 6 s of constant velocity and attitude before the flight (joined C2)
+  kDarkStart,        // first 3 s of images black
+  kTextureless,      // walls and ceiling textureless (floor and boxes keep texture)
+  kImpulses,         // single-sample IMU spikes (30-80 m/s^2, 5-10 rad/s) at the highest yaw rates
+  kRightDropout,     // right camera blank (black) for 4 s mid-flight
+};
+bool parse_scenario(const std::string& name, Scenario* scenario);
+const char* scenario_name(Scenario scenario);
+inline constexpr Scenario kAllScenarios[] = {Scenario::kNominal, Scenario::kStandstillStart,
+                                             Scenario::kUniformStart, Scenario::kDarkStart,
+                                             Scenario::kTextureless, Scenario::kImpulses,
+                                             Scenario::kRightDropout};
+
+enum class CameraPreset : std::uint8_t { kEuroc, kD455 };
+bool parse_camera_preset(const std::string& name, CameraPreset* preset);
+
+// EuRoC: VI-Sensor calibration (cam0/cam1 sensor.yaml) + ADIS16448 densities. D455: 848x480
+// IR pair, 95 mm baseline, undistorted pinhole, BMI055 densities (datasheet-derived).
+RigCalibration rig_preset(CameraPreset preset);
+
+struct SimOptions {
+  std::string trajectory_path;        // shared *_GT.txt or EuRoC data.csv; empty: built-in loop
+  Scenario scenario = Scenario::kNominal;
+  std::uint64_t seed = 1;             // every random draw (noise, biases, boxes, textures)
+  std::string out_dir;                // dataset folder (gets mav0/)
+  double start_s = 0.0;               // s into the trajectory where the cut starts
+  double duration_s = 60.0;           // s of flight after start_s; <= 0: to the end
+  CameraPreset camera_preset = CameraPreset::kEuroc;
+  double camera_rate_hz = 20.0;       // Hz
+  double imu_rate_hz = 200.0;         // Hz
+  double gravity_m_s2 = 9.81;         // m/s^2
+  double initial_gyro_bias_sigma_rad_s = 0.002;   // per-axis std of the initial gyro bias, rad/s
+  double initial_accel_bias_sigma_m_s2 = 0.02;    // per-axis std of the initial accel bias, m/s^2
+  bool exposure_change = false;       // slow exposure oscillation, +-35 % over 8 s
+  int max_frames = -1;                // render only the first N pairs (tests); < 0: all
+  WorldOptions world;
+  RenderOptions render;
+  bool validate(std::string* error) const;
+};
+
+// The continuous body trajectory of a run and its time span [t_begin_ns, t_end_ns].
+struct SimTrajectory {
+  PoseSpline spline;
+  std::int64_t t_begin_ns = 0;
+  std::int64_t t_end_ns = 0;
+  std::int64_t flight_begin_ns = 0;   // end of the scenario prefix (== t_begin without one)
+};
+SimTrajectory make_trajectory(const SimOptions& options, const RigCalibration& rig);
+
+struct ImuTrack {
+  std::vector<ImuSample> samples;                 // measured (noise, bias, impulses)
+  std::vector<hal::GroundTruthState> truth;       // at the same stamps, with the true biases
+  std::vector<std::size_t> impulse_index;         // samples carrying an impulse
+};
+ImuTrack generate_imu(const SimTrajectory& trajectory, const ImuCalibration& imu, const SimOptions& options);
+
+using ProgressCallback = std::function<void(int frames_done, int frames_total)>;
+
+// Writes the dataset to options.out_dir. Returns 0, or 1 with *error set (bad options, file
+// errors). Also writes out_dir/sim_events.csv (scenario events: impulses, dark/dropout spans).
+int simulate(const SimOptions& options, std::string* error, const ProgressCallback& progress = {});
+
+}  // namespace ums::sim
