@@ -16,9 +16,11 @@ usage: umsvins <command> [options]
                    [--frontend-only] [--quiet]
       Run on an EuRoC-layout folder (the one holding mav0/). Writes DIR/stats.json
       (and DIR/trajectory.tum, DIR/report.html where those stages exist). Default DIR: out/replay.
-  simulate [--trajectory F] [--scenario NAME] [--seed N] [--duration S] --out DIR
-      Write a synthetic EuRoC-layout stereo+IMU dataset.
-  eval --estimate F --groundtruth F [--align se3|sim3|posyaw]
+  simulate [--trajectory F] [--scenario NAME] [--seed N] [--start S] [--duration S]
+           [--camera euroc|d455] [--max-frames N] [--exposure-change] --out DIR
+      Write a synthetic EuRoC-layout stereo+IMU dataset (scenarios: nominal, standstill-start,
+      uniform-start, dark-start, textureless, impulses, right-dropout).
+  eval --estimate F --groundtruth F [--align se3|sim3|posyaw] [--cam0-sensor-yaml F]
       Print ATE and RPE of a trajectory against ground truth.
   sweep <dataset> --runs N --start-range A:B --out DIR
       Repeat replay from random start times (robustness table).

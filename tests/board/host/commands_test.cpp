@@ -119,6 +119,60 @@ TEST_CASE("umsvins live --source replay: the threaded path sees what the single-
   CHECK(replay_stats.find("\"frames\": 21") != std::string::npos);
 }
 
+TEST_CASE("umsvins simulate writes a dataset that replay reads, eval scores an estimate of it",
+          "[cli][sim]") {
+  const std::string dir = test::make_temp_dir("cli_sim");
+  const Run sim = run({"simulate", "--trajectory", test::groundtruth_dir() + "/MH01_GT.txt", "--duration",
+                       "1.0", "--max-frames", "3", "--seed", "7", "--out", dir + "/ds", "--quiet"});
+  INFO(sim.err);
+  REQUIRE(sim.code == kExitOk);
+  const std::string gt = dir + "/ds/mav0/state_groundtruth_estimate0/data.csv";
+  REQUIRE(std::filesystem::exists(gt));
+
+  const Run replay = run({"replay", dir + "/ds", "--out", dir + "/out", "--quiet"});
+  INFO(replay.err);
+  REQUIRE(replay.code == kExitOk);
+  CHECK(replay.out.find("3 stereo pairs") != std::string::npos);
+
+  // An estimate = every 10th ground-truth body pose with z alternately +-1 cm: no rigid
+  // alignment can remove that, so ATE RMSE is 1 cm (to the alignment's small tilt).
+  std::ifstream in(gt);
+  std::ofstream tum(dir + "/est.tum");
+  std::string line;
+  int row = 0;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    if (row++ % 10 != 0) continue;
+    std::stringstream ss(line);
+    std::string cell;
+    double v[8];
+    for (double& x : v) {
+      std::getline(ss, cell, ',');
+      x = std::stod(cell);
+    }
+    const double dz = (row / 10) % 2 == 0 ? 0.01 : -0.01;
+    char buf[256];
+    std::snprintf(buf, sizeof(buf), "%.9f %.9f %.9f %.9f %.9f %.9f %.9f %.9f\n", v[0] * 1e-9, v[1], v[2],
+                  v[3] + dz, v[5], v[6], v[7], v[4]);
+    tum << buf;
+  }
+  tum.close();
+  REQUIRE(row >= 200);  // 1 s at 200 Hz
+
+  const Run eval = run({"eval", "--estimate", dir + "/est.tum", "--groundtruth", gt});
+  INFO(eval.err);
+  REQUIRE(eval.code == kExitOk);
+  const std::size_t at = eval.out.find("ATE trans [m]: rmse ");
+  REQUIRE(at != std::string::npos);
+  const double rmse_m = std::stod(eval.out.substr(at + 20));
+  CHECK(rmse_m == Approx(0.010).margin(0.001));
+
+  CHECK(run({"eval", "--estimate", dir + "/est.tum", "--groundtruth", gt, "--align", "affine"}).code ==
+        kExitUsage);
+  CHECK(run({"simulate", "--scenario", "foggy", "--out", dir + "/x"}).code == kExitUsage);
+  CHECK(run({"eval", "--estimate", dir + "/missing.tum", "--groundtruth", gt}).code == kExitFailure);
+}
+
 TEST_CASE("umsvins replay: a missing dataset fails with its path", "[cli]") {
   const std::string missing = test::make_temp_dir("cli_missing") + "/no_such_dataset";
   const Run r = run({"replay", missing, "--out", test::make_temp_dir("cli_missing_out")});
