@@ -37,6 +37,14 @@ inline void add_jtr(DenseVector& b, int o, const double* J, int t, const double*
   b.segment(o, t) += A.transpose().lazyProduct(Eigen::Map<const Eigen::VectorXd>(r, rows));
 }
 
+// col[0..N) += a0 * b0 + a1 * b1: one column of a 2-row J^T J block, compile-time length so it
+// unrolls into whole SIMD packets.
+template <int N>
+__attribute__((always_inline)) inline void col_update2(double* col, const double* a0,
+                                                       const double* a1, double b0, double b1) {
+  for (int i = 0; i < N; ++i) col[i] += a0[i] * b0 + a1[i] * b1;
+}
+
 bool all_finite(const double* v, int n) {
   for (int i = 0; i < n; ++i)
     if (!std::isfinite(v[i])) return false;
@@ -136,20 +144,38 @@ SolverStatus Problem::prepare() {
   if (prepared_) return SolverStatus::kOk;
   n_red_ = 0;
   num_lm_ = 0;
-  for (int i = 0; i < num_blocks_; ++i) {
-    Block& b = blocks_[i];
-    b.index = -1;
-    if (b.constant) continue;
-    if (b.eliminate) {
-      if (num_lm_ >= capacity::kMaxEliminatedBlocks) return SolverStatus::kFull;
-      b.index = num_lm_;
-      lm_block_[num_lm_] = static_cast<std::int16_t>(i);
-      lm_dim_[num_lm_] = b.tangent;
-      ++num_lm_;
-    } else {
-      if (n_red_ + b.tangent > capacity::kMaxReducedDim) return SolverStatus::kFull;
-      b.index = n_red_;
-      n_red_ += b.tangent;
+  // Reduced ordering: blocks seen by landmarks (poses, extrinsics) first, in declaration order,
+  // then the others (speed-biases, time offsets). The frames observing one landmark then occupy
+  // contiguous rows, so its couplings merge into one or two long segments: the Schur updates and
+  // the accumulation touch fewer, denser parts of the reduced matrix.
+  for (int i = 0; i < num_blocks_; ++i) touched_[i] = false;
+  for (int k = 0; k < num_residuals_; ++k) {
+    const Residual& rb = residuals_[k];
+    bool has_lm = false;
+    for (int j = 0; j < rb.num_blocks; ++j) {
+      const Block& b = blocks_[rb.blocks[j]];
+      has_lm = has_lm || (b.eliminate && !b.constant);
+    }
+    if (!has_lm) continue;
+    for (int j = 0; j < rb.num_blocks; ++j) touched_[rb.blocks[j]] = true;
+  }
+  for (int pass = 0; pass < 2; ++pass) {
+    for (int i = 0; i < num_blocks_; ++i) {
+      Block& b = blocks_[i];
+      if (pass == 0) b.index = -1;
+      if (b.constant) continue;
+      if (b.eliminate) {
+        if (pass == 1) continue;
+        if (num_lm_ >= capacity::kMaxEliminatedBlocks) return SolverStatus::kFull;
+        b.index = num_lm_;
+        lm_block_[num_lm_] = static_cast<std::int16_t>(i);
+        lm_dim_[num_lm_] = b.tangent;
+        ++num_lm_;
+      } else if (touched_[i] == (pass == 0)) {
+        if (n_red_ + b.tangent > capacity::kMaxReducedDim) return SolverStatus::kFull;
+        b.index = n_red_;
+        n_red_ += b.tangent;
+      }
     }
   }
 
@@ -300,7 +326,9 @@ bool Problem::evaluate_residual(const Residual& rb, bool jacobians, double* r, d
   double rho[3];
   rb.loss.evaluate(sq, rho);
   *cost = 0.5 * rho[0];
-  if (jacobians) {
+  // Inside Huber's quadratic region (and whenever rho' = 1, rho'' = 0) the correction is the
+  // identity: skip the multiplications by 1 (bit-identical result).
+  if (jacobians && !(rho[1] == 1.0 && rho[2] == 0.0)) {
     const LossCorrector corrector(sq, rho);
     for (int j = 0; j < rb.num_blocks; ++j) {
       if (!jac_wanted_[j]) continue;
@@ -318,6 +346,7 @@ void Problem::accumulate_two_row(const Residual& rb, const double* r) {
   using J26 = Eigen::Map<const Eigen::Matrix<double, 2, 6, Eigen::RowMajor>>;
   const Eigen::Map<const Eigen::Vector2d> rv(r);
   MatrixMap H = H_.m();
+  const Eigen::Index ld = H.outerStride();
   const double* Jl = rb.lm_pos >= 0 ? jac_ws_[rb.lm_pos] : nullptr;
   const int n = rb.num_sorted;
   for (int a = 0; a < n; ++a) {
@@ -325,10 +354,25 @@ void Problem::accumulate_two_row(const Residual& rb, const double* r) {
     const int oa = blocks_[rb.blocks[ka]].index;
     const J26 A(jac_ws_[ka]);
     b_.segment<6>(oa).noalias() += A.transpose() * rv;
-    H.block<6, 6>(oa, oa).noalias() += A.transpose() * A;
+    {
+      // Diagonal block: upper triangle only (the lower one is never read).
+      const double* a0 = jac_ws_[ka];
+      const double* a1 = jac_ws_[ka] + 6;
+      // Rows rounded up to whole packets of 2: the few lower entries written are never read.
+      double* Hd = H.data() + oa * ld + oa;
+      col_update2<2>(Hd, a0, a1, a0[0], a1[0]);
+      col_update2<2>(Hd + ld, a0, a1, a0[1], a1[1]);
+      col_update2<4>(Hd + 2 * ld, a0, a1, a0[2], a1[2]);
+      col_update2<4>(Hd + 3 * ld, a0, a1, a0[3], a1[3]);
+      col_update2<6>(Hd + 4 * ld, a0, a1, a0[4], a1[4]);
+      col_update2<6>(Hd + 5 * ld, a0, a1, a0[5], a1[5]);
+    }
     for (int c = a + 1; c < n; ++c) {
       const int kc = rb.sorted[c];
-      H.block<6, 6>(oa, blocks_[rb.blocks[kc]].index).noalias() += A.transpose() * J26(jac_ws_[kc]);
+      const double* c0 = jac_ws_[kc];
+      const double* c1 = jac_ws_[kc] + 6;
+      double* Hb = H.data() + blocks_[rb.blocks[kc]].index * ld + oa;
+      for (int j = 0; j < 6; ++j) col_update2<6>(Hb + j * ld, jac_ws_[ka], jac_ws_[ka] + 6, c0[j], c1[j]);
     }
     if (Jl != nullptr)
       Eigen::Map<Eigen::Matrix<double, 6, 1>>(v_ + cpl_v_[rb.slot[ka]]).noalias() +=
