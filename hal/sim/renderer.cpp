@@ -114,6 +114,10 @@ bool WorldOptions::validate(std::string* error) const {
     if (error) *error = "WorldOptions.margin_xy_m must be in [1.5, 4] m, got " + std::to_string(margin_xy_m);
     return false;
   }
+  if (texture_size < 64 || texture_size > 4096 || (texture_size & (texture_size - 1)) != 0) {
+    if (error) *error = "WorldOptions.texture_size must be a power of two in [64, 4096], got " + std::to_string(texture_size);
+    return false;
+  }
   if (boxes < 0 || boxes > 32) {
     if (error) *error = "WorldOptions.boxes must be in [0, 32], got " + std::to_string(boxes);
     return false;
@@ -142,7 +146,9 @@ World make_world(const std::vector<Eigen::Vector3d>& path_w, const WorldOptions&
   w.room_lo = (lo - Eigen::Vector3d(o.margin_xy_m, o.margin_xy_m, o.margin_down_m)).cast<float>();
   w.room_hi = (hi + Eigen::Vector3d(o.margin_xy_m, o.margin_xy_m, o.margin_up_m)).cast<float>();
   // Materials: 0..5 textured faces, 6 textureless, 7.. boxes.
-  for (std::uint32_t m = 0; m < 6; ++m) w.materials.push_back(make_textured_material(o.seed * 131u + m));
+  // A tile always spans 4 m; a smaller texture_size only lowers the finest detail.
+  const float tpm = static_cast<float>(o.texture_size) / 4.0f;
+  for (std::uint32_t m = 0; m < 6; ++m) w.materials.push_back(make_textured_material(o.seed * 131u + m, o.texture_size, tpm));
   w.materials.push_back(make_textureless_material(o.seed));
   for (int f = 0; f < 6; ++f) {
     const bool wall_or_ceiling = f != 4;
@@ -171,7 +177,8 @@ World make_world(const std::vector<Eigen::Vector3d>& path_w, const WorldOptions&
     b.lo = blo.cast<float>();
     b.hi = bhi.cast<float>();
     b.material = static_cast<int>(w.materials.size());
-    w.materials.push_back(make_textured_material(o.seed * 977u + 7919u * static_cast<std::uint32_t>(placed), 512));
+    w.materials.push_back(make_textured_material(o.seed * 977u + 7919u * static_cast<std::uint32_t>(placed),
+                                                 std::max(64, o.texture_size / 2), tpm));
     w.boxes.push_back(b);
     ++placed;
   }
@@ -188,14 +195,16 @@ StereoRenderer::StereoRenderer(const World& world, const RigCalibration& rig) : 
     bearing_[c].resize(static_cast<std::size_t>(cc.width) * cc.height);
     footprint_[c].resize(bearing_[c].size());
     for (int v = 0; v < cc.height; ++v) {
+      // One unproject per pixel plus one past the row end; the footprint is the angle to the
+      // right-hand neighbour's ray.
+      Eigen::Vector3d next;
+      if (!cam.unproject(Eigen::Vector2d(0.0, v), &next)) next = Eigen::Vector3d::UnitZ();
       for (int u = 0; u < cc.width; ++u) {
-        Eigen::Vector3d b, bx;
-        if (!cam.unproject(Eigen::Vector2d(u, v), &b)) b = Eigen::Vector3d::UnitZ();
-        if (!cam.unproject(Eigen::Vector2d(u + 1.0, v), &bx)) bx = b;
+        const Eigen::Vector3d b = next;
+        if (!cam.unproject(Eigen::Vector2d(u + 1.0, v), &next)) next = b;
         const std::size_t i = static_cast<std::size_t>(v) * cc.width + u;
         bearing_[c][i] = b.cast<float>();
-        // Angular width of the pixel (radians ~ metres per metre of range).
-        footprint_[c][i] = static_cast<float>(std::max(1e-5, (bx - b).norm()));
+        footprint_[c][i] = static_cast<float>(std::max(1e-5, (next - b).norm()));
       }
     }
   }

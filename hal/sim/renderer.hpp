@@ -53,6 +53,7 @@ struct WorldOptions {
   int boxes = 5;                  // textured boxes placed clear of the path
   double box_clearance_m = 0.8;   // minimum distance of a box from any path point, m
   bool textureless_walls = false; // `textureless` scenario: walls and ceiling textureless
+  int texture_size = 1024;        // texels per side of a 4 m wall tile (power of two; tests: 256)
   std::uint32_t seed = 1;
   bool validate(std::string* error) const;
 };
