@@ -90,7 +90,7 @@ TEST_CASE("rendering consistency: a world marker lands at its projection in both
   }
 }
 
-TEST_CASE("textured material has corners at every pyramid scale; textureless is flat", "[sim][renderer]") {
+TEST_CASE("textured material has corners at every pyramid scale and textureless is flat", "[sim][renderer]") {
   const Texture t = make_textured_material(5);
   // Gradient energy at mip levels 0..4 (pyramid levels see these scales): all well above noise.
   for (int level = 0; level <= 4; ++level) {

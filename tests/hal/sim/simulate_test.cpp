@@ -184,7 +184,7 @@ TEST_CASE("every scenario generates from every shared trajectory", "[sim][scenar
   }
 }
 
-TEST_CASE("same seed, same dataset; right camera blank during the dropout", "[sim][scenario]") {
+TEST_CASE("same seed gives the same dataset and the right camera is blank during the dropout", "[sim][scenario]") {
   const std::string root = ums::test::make_temp_dir("sim_determinism");
   SimOptions o;
   o.scenario = Scenario::kRightDropout;  // built-in trajectory

@@ -49,7 +49,7 @@ ReportData example_report() {
 }
 
 // Fraction of pixels that are not near-white in an 8-bit RGB(A)/grey PNG; -1 on read failure.
-double non_white_fraction(const std::string& path) {
+[[maybe_unused]] double non_white_fraction(const std::string& path) {
   png_image img;
   std::memset(&img, 0, sizeof img);
   img.version = PNG_IMAGE_VERSION;

@@ -49,7 +49,7 @@ TEST_CASE("shared *_GT.txt reads as cam0 with q = R_CW inverted", "[eval][trajec
   CHECK(angle_deg < 3.0);
 }
 
-TEST_CASE("EuRoC csv (17 columns) reads as body; T_BS parses from sensor.yaml", "[eval][trajectory]") {
+TEST_CASE("EuRoC csv (17 columns) reads as body and T_BS parses from sensor.yaml", "[eval][trajectory]") {
   const std::string dir = ums::test::make_temp_dir("eval_euroc_csv");
   {
     std::ofstream f(dir + "/data.csv");
