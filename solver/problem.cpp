@@ -37,12 +37,40 @@ inline void add_jtr(DenseVector& b, int o, const double* J, int t, const double*
   b.segment(o, t) += A.transpose().lazyProduct(Eigen::Map<const Eigen::VectorXd>(r, rows));
 }
 
-// col[0..N) += a0 * b0 + a1 * b1: one column of a 2-row J^T J block, compile-time length so it
-// unrolls into whole SIMD packets.
+// col[0..N) += a0 * b0 + a1 * b1: one column of a 2-row J^T J block in whole packets of 2
+// (Eigen's packet ops on Vector2d: SSE2 / NEON). Written with explicit packets because GCC's own
+// vectorizer turns the unrolled triangle into scalar code.
 template <int N>
-__attribute__((always_inline)) inline void col_update2(double* col, const double* a0,
-                                                       const double* a1, double b0, double b1) {
-  for (int i = 0; i < N; ++i) col[i] += a0[i] * b0 + a1[i] * b1;
+__attribute__((always_inline)) inline void col_update2(double* col, const Eigen::Vector2d* a0,
+                                                       const Eigen::Vector2d* a1, double b0,
+                                                       double b1) {
+  for (int i = 0; i < N / 2; ++i) {
+    Eigen::Map<Eigen::Vector2d> c(col + 2 * i);
+    c += a0[i] * b0 + a1[i] * b1;
+  }
+}
+
+// H(0..6, 0..6) += A^T C for 2 x 6 row-major A, C; H column-major with leading dimension ld.
+// Upper = true (C == A, a diagonal block): only the upper triangle, rounded up to whole packets of
+// 2 rows (the few lower entries written are never read). A is held in registers across columns.
+template <bool Upper>
+__attribute__((always_inline)) inline void add_jtj_2x6(double* Hb, Eigen::Index ld, const double* A,
+                                                       const double* C) {
+  Eigen::Vector2d a0[3], a1[3];
+  for (int i = 0; i < 3; ++i) {
+    a0[i] = Eigen::Map<const Eigen::Vector2d>(A + 2 * i);
+    a1[i] = Eigen::Map<const Eigen::Vector2d>(A + 6 + 2 * i);
+  }
+  if constexpr (Upper) {
+    col_update2<2>(Hb, a0, a1, A[0], A[6]);
+    col_update2<2>(Hb + ld, a0, a1, A[1], A[7]);
+    col_update2<4>(Hb + 2 * ld, a0, a1, A[2], A[8]);
+    col_update2<4>(Hb + 3 * ld, a0, a1, A[3], A[9]);
+    col_update2<6>(Hb + 4 * ld, a0, a1, A[4], A[10]);
+    col_update2<6>(Hb + 5 * ld, a0, a1, A[5], A[11]);
+  } else {
+    for (int j = 0; j < 6; ++j) col_update2<6>(Hb + j * ld, a0, a1, C[j], C[6 + j]);
+  }
 }
 
 bool all_finite(const double* v, int n) {
@@ -235,20 +263,21 @@ SolverStatus Problem::prepare() {
   num_cpl_ = 0;
   num_seg_ = 0;
   int v_used = 0;
+  for (int i = 0; i < num_blocks_; ++i) mark_[i] = -1;
   for (int l = 0; l < num_lm_; ++l) {
     lm_cpl_begin_[l] = num_cpl_;
     int ids[capacity::kMaxCouplingsPerLandmark];
     int n_ids = 0;
+    // mark_[block] == l: already listed for this landmark (no quadratic search).
     for (int q = lm_res_begin_[l]; q < lm_res_begin_[l + 1]; ++q) {
       const Residual& rb = residuals_[lm_res_[q]];
       for (int j = 0; j < rb.num_blocks; ++j) {
-        const Block& b = blocks_[rb.blocks[j]];
-        if (b.constant || b.eliminate) continue;
-        bool seen = false;
-        for (int s = 0; s < n_ids; ++s) seen = seen || ids[s] == rb.blocks[j];
-        if (seen) continue;
+        const int id = rb.blocks[j];
+        const Block& b = blocks_[id];
+        if (b.constant || b.eliminate || mark_[id] == l) continue;
         if (n_ids >= capacity::kMaxCouplingsPerLandmark) return SolverStatus::kFull;
-        ids[n_ids++] = rb.blocks[j];
+        mark_[id] = l;
+        ids[n_ids++] = id;
       }
     }
     std::sort(ids, ids + n_ids,
@@ -262,12 +291,12 @@ SolverStatus Problem::prepare() {
       v_used += b.tangent * lm_dim_[l];
       if (v_used > capacity::kMaxCouplingEntries) return SolverStatus::kFull;
     }
+    for (int s = 0; s < n_ids; ++s) slot_of_[ids[s]] = num_cpl_ + s;
     for (int q = lm_res_begin_[l]; q < lm_res_begin_[l + 1]; ++q) {
       Residual& rb = residuals_[lm_res_[q]];
       for (int j = 0; j < rb.num_blocks; ++j) {
-        rb.slot[j] = -1;
-        for (int s = 0; s < n_ids; ++s)
-          if (ids[s] == rb.blocks[j]) rb.slot[j] = static_cast<std::int16_t>(num_cpl_ + s);
+        const int id = rb.blocks[j];
+        rb.slot[j] = mark_[id] == l ? static_cast<std::int16_t>(slot_of_[id]) : -1;
       }
     }
     lm_seg_begin_[l] = num_seg_;
@@ -354,25 +383,12 @@ void Problem::accumulate_two_row(const Residual& rb, const double* r) {
     const int oa = blocks_[rb.blocks[ka]].index;
     const J26 A(jac_ws_[ka]);
     b_.segment<6>(oa).noalias() += A.transpose() * rv;
-    {
-      // Diagonal block: upper triangle only (the lower one is never read).
-      const double* a0 = jac_ws_[ka];
-      const double* a1 = jac_ws_[ka] + 6;
-      // Rows rounded up to whole packets of 2: the few lower entries written are never read.
-      double* Hd = H.data() + oa * ld + oa;
-      col_update2<2>(Hd, a0, a1, a0[0], a1[0]);
-      col_update2<2>(Hd + ld, a0, a1, a0[1], a1[1]);
-      col_update2<4>(Hd + 2 * ld, a0, a1, a0[2], a1[2]);
-      col_update2<4>(Hd + 3 * ld, a0, a1, a0[3], a1[3]);
-      col_update2<6>(Hd + 4 * ld, a0, a1, a0[4], a1[4]);
-      col_update2<6>(Hd + 5 * ld, a0, a1, a0[5], a1[5]);
-    }
+    // Diagonal block (upper triangle only), then the blocks to its right.
+    add_jtj_2x6<true>(H.data() + oa * ld + oa, ld, jac_ws_[ka], jac_ws_[ka]);
     for (int c = a + 1; c < n; ++c) {
       const int kc = rb.sorted[c];
-      const double* c0 = jac_ws_[kc];
-      const double* c1 = jac_ws_[kc] + 6;
-      double* Hb = H.data() + blocks_[rb.blocks[kc]].index * ld + oa;
-      for (int j = 0; j < 6; ++j) col_update2<6>(Hb + j * ld, jac_ws_[ka], jac_ws_[ka] + 6, c0[j], c1[j]);
+      add_jtj_2x6<false>(H.data() + blocks_[rb.blocks[kc]].index * ld + oa, ld, jac_ws_[ka],
+                         jac_ws_[kc]);
     }
     if (Jl != nullptr)
       Eigen::Map<Eigen::Matrix<double, 6, 1>>(v_ + cpl_v_[rb.slot[ka]]).noalias() +=

@@ -180,6 +180,8 @@ class Problem {
   int seg_v_[capacity::kMaxCouplings] = {};
   int num_seg_ = 0;
   int v_used_ = 0;
+  int mark_[capacity::kMaxParameterBlocks] = {};     // prepare(): last landmark listing a block
+  int slot_of_[capacity::kMaxParameterBlocks] = {};  // prepare(): its coupling index there
 
   // Linearization: reduced H (upper triangle) and b = J^T r; per landmark H_ll, g_l, V = J_B^T J_l.
   DenseMatrix H_;
