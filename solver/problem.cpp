@@ -668,7 +668,8 @@ void Problem::eliminate_landmark(int l, double lm_scale, MatrixMap S, DenseVecto
 
 bool Problem::compute_step(double lm_scale, double* model_cost_change) {
   const bool damp = lm_scale > 0.0;
-  S_.m() = H_.m();
+  // Only the upper triangle is ever read (Schur updates and the Upper LLT).
+  S_.m().triangularView<Eigen::Upper>() = H_.m();
   rhs_ = b_;
   if (damp) {
     MatrixMap S = S_.m();
@@ -707,12 +708,19 @@ bool Problem::compute_step(double lm_scale, double* model_cost_change) {
     }
     double t[3];
     for (int p = 0; p < e; ++p) t[p] = gl_[l][p];
-    for (int a = c0; a < c1; ++a) {
-      const int oa = cpl_row_[a];
-      const int da = cpl_dim_[a];
-      const double* va = v_ + cpl_v_[a];
-      for (int i = 0; i < da; ++i)
-        for (int p = 0; p < e; ++p) t[p] += va[i * e + p] * dx_[oa + i];
+    if (e == 1) {
+      // 1-dof landmark: dot products over its merged contiguous segments.
+      for (int a = lm_seg_begin_[l]; a < lm_seg_begin_[l + 1]; ++a)
+        t[0] += Eigen::Map<const Eigen::VectorXd>(v_ + seg_v_[a], seg_len_[a])
+                    .dot(dx_.segment(seg_row_[a], seg_len_[a]));
+    } else {
+      for (int a = c0; a < c1; ++a) {
+        const int oa = cpl_row_[a];
+        const int da = cpl_dim_[a];
+        const double* va = v_ + cpl_v_[a];
+        for (int i = 0; i < da; ++i)
+          for (int p = 0; p < e; ++p) t[p] += va[i * e + p] * dx_[oa + i];
+      }
     }
     if (e == 1) {
       dl_[l][0] = -dl_[l][0] * t[0];
