@@ -6,7 +6,7 @@ set -euo pipefail
 want="${1:-all}"
 
 host_pkgs=(cmake ninja-build g++ pkg-config libeigen3-dev libopencv-core-dev libopencv-imgproc-dev
-           libpng-dev catch2 python3)
+           libpng-dev catch2 python3 chromium)
 bench_pkgs=(libceres-dev)
 arm64_pkgs=(g++-aarch64-linux-gnu qemu-user libopencv-core-dev:arm64 libopencv-imgproc-dev:arm64
             libpng-dev:arm64 zlib1g-dev:arm64)

@@ -17,6 +17,8 @@
 #include "core/common/version.hpp"
 #include "hal/replay/euroc_reader.hpp"
 #include "profiling/alloc_counter.hpp"
+#include "profiling/eval/report_html.hpp"
+#include "profiling/eval/trajectory.hpp"
 #include "profiling/json_writer.hpp"
 #include "profiling/progress.hpp"
 
@@ -47,6 +49,43 @@ void write_timing(JsonWriter& w, const StageTimes& times) {
   w.end_object();
 }
 
+// report.html: what the run has today (features and timing per frame, the ground truth's path
+// when the dataset has one; the estimate and its error once the estimator exists).
+void write_report(const std::string& dataset, const hal::EurocReader& reader, const ReplayPipeline& pipeline,
+                  const ReplaySummary& summary, const std::filesystem::path& path, std::ostream& err) {
+  eval::ReportData data;
+  data.title = "umsvins replay: " + dataset;
+  data.summary = {{"dataset", dataset},
+                  {"frames", std::to_string(summary.frames)},
+                  {"duration", std::to_string(summary.duration_s) + " s"},
+                  {"pipeline time", std::to_string(summary.processing_s) + " s"},
+                  {"estimator", "not implemented yet (issue 7): no estimate"}};
+  const ReplayPipeline::FrameSeries& s = pipeline.series();
+  data.features.t_s = s.t_s;
+  data.features.n_3d = s.n_3d;
+  data.features.n_2d_left = s.n_2d_left;
+  data.features.n_2d_right = s.n_2d_right;
+  data.stage_timings.push_back({"frontend", s.frontend_ms});
+  data.stage_timings.push_back({"total", s.total_ms});
+  data.end_t_s = summary.duration_s;
+  if (reader.has_groundtruth()) {
+    try {
+      const eval::Trajectory gt = eval::read_trajectory(reader.groundtruth_path());
+      const double t0_ns = static_cast<double>(reader.window_start_t_ns());
+      for (const eval::StampedPose& p : gt.poses) {
+        const double t_s = (static_cast<double>(p.t_ns) - t0_ns) * 1e-9;
+        if (t_s < 0.0 || t_s > summary.duration_s) continue;
+        data.groundtruth.t_s.push_back(t_s);
+        data.groundtruth.p_w_m.push_back(p.p_w_x);
+      }
+    } catch (const std::exception& e) {
+      err << "warning: ground truth not shown in the report: " << e.what() << "\n";
+    }
+  }
+  std::string error;
+  if (!eval::write_report_html(data, path.string(), &error)) throw std::runtime_error(error);
+}
+
 }  // namespace
 
 int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
@@ -75,6 +114,7 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
 
   ReplayPipelineOptions pipeline_options;
   pipeline_options.frontend_only = args.has("frontend-only");
+  pipeline_options.report_frames = reader.total_pairs_estimate() + 16;
   // Start-up footprint: everything the pipeline allocates while it is built, plus itself.
   AllocScope startup_allocs;
   ReplayPipeline pipeline(config, pipeline_options);
@@ -135,6 +175,7 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
       .end_object();
   w.end_object();
   write_file(out_dir / "stats.json", w.str());
+  write_report(dataset, reader, pipeline, summary, out_dir / "report.html", err);
 
   out << "replay: " << summary.frames << " stereo pairs, " << summary.imu_samples
       << " IMU samples, " << summary.duration_s << " s of data in " << wall_s << " s ("
@@ -145,7 +186,8 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
         << " unreadable images\n";
   }
   pipeline.print_summary(out);
-  out << "replay: wrote " << (out_dir / "stats.json").string() << "\n";
+  out << "replay: wrote " << (out_dir / "stats.json").string() << " and " << (out_dir / "report.html").string()
+      << "\n";
   if (!pipeline.has_estimator()) {
     out << "replay: no trajectory written: the estimator is not implemented yet (issue 7)\n";
   }

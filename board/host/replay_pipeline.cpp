@@ -33,7 +33,11 @@ ReplayPipeline::ReplayPipeline(const AppConfig& config, const ReplayPipelineOpti
       frontend_(frontend_options_from(config), config.rig),
       keyframes_(keyframe_options_from(config)),
       features_(new FrameFeatures()),
-      q_b_c0_(config.rig.cam[0].T_b_c.rotation()) {}
+      q_b_c0_(config.rig.cam[0].T_b_c.rotation()) {
+  // Reserved here so that recording a frame never allocates; beyond it frames are counted only.
+  for (auto* v : {&series_.t_s, &series_.frontend_ms, &series_.total_ms}) v->reserve(options.report_frames);
+  for (auto* v : {&series_.n_3d, &series_.n_2d_left, &series_.n_2d_right}) v->reserve(options.report_frames);
+}
 
 ReplayPipeline::~ReplayPipeline() {
   delete features_;
@@ -72,6 +76,8 @@ void ReplayPipeline::on_imu(const ImuSample& sample) {
 void ReplayPipeline::on_stereo(const StereoFrame& frame) {
   const bool steady = summary_.frames >= options_.steady_state_from_frame;
   AllocScope allocs;
+  const auto frame_start = std::chrono::steady_clock::now();
+  double frontend_ms = 0.0;
   {
     ScopedStageTimer total(times_, Stage::kTotal);
     const auto start = std::chrono::steady_clock::now();
@@ -83,6 +89,7 @@ void ReplayPipeline::on_stereo(const StereoFrame& frame) {
       const Eigen::Quaterniond q_c0prev_c0curr = q_b_c0_.conjugate() * q_bprev_bcurr_ * q_b_c0_;
       const Status st = frontend_.process(frame, have_imu_since_frame_ ? &q_c0prev_c0curr : nullptr,
                                           features_);
+      frontend_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
       q_bprev_bcurr_.setIdentity();
       have_imu_since_frame_ = false;
       if (st == Status::kOk) {
@@ -96,6 +103,19 @@ void ReplayPipeline::on_stereo(const StereoFrame& frame) {
     summary_.processing_s +=
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   }
+  if (series_.t_s.size() < series_.t_s.capacity()) {
+    const bool ok = frontend_rejected_before_ == summary_.frontend_rejected_frames;
+    series_.t_s.push_back(static_cast<double>(frame.t_ns - first_t_ns_) * 1e-9);
+    series_.frontend_ms.push_back(frontend_ms);
+    series_.total_ms.push_back(
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - frame_start).count());
+    series_.n_3d.push_back(ok ? features_->n_3d : 0);
+    series_.n_2d_left.push_back(ok ? features_->n_2d_left : 0);
+    series_.n_2d_right.push_back(ok ? features_->n_2d_right : 0);
+  } else {
+    ++series_dropped_;
+  }
+  frontend_rejected_before_ = summary_.frontend_rejected_frames;
   if (steady) summary_.heap_allocs_steady_state += allocs.allocations();
 }
 
@@ -151,6 +171,7 @@ void ReplayPipeline::write_stats(JsonWriter& w) const {
   w.begin_object("drops")
       .value("imu_out_of_order", out_of_order_imu_)
       .value("frontend_rejected_frames", s.frontend_rejected_frames)
+      .value("report_series", series_dropped_)
       .end_object();
 }
 

@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <ostream>
+#include <vector>
 
 #include "board/config/app_config.hpp"
 #include "core/common/measurement_sink.hpp"
@@ -19,6 +20,7 @@ namespace ums::cli {
 
 struct ReplayPipelineOptions {
   bool frontend_only = false;      // run the front end and stop there
+  std::size_t report_frames = 0;   // frames of per-frame series kept for report.html (reserved once)
   std::uint64_t steady_state_from_frame = 50;  // frames before this are warm-up for alloc counting
 };
 
@@ -53,6 +55,13 @@ class ReplayPipeline final : public MeasurementSink {
   const StageTimes& stage_times() const { return *times_; }
   ReplaySummary summary() const;
 
+  // Per-frame series for report.html (the first report_frames frames).
+  struct FrameSeries {
+    std::vector<double> t_s, frontend_ms, total_ms;
+    std::vector<int> n_3d, n_2d_left, n_2d_right;
+  };
+  const FrameSeries& series() const { return series_; }
+
   // Adds the pipeline's keys to stats.json (features, memory, imu, drops, init, modes).
   void write_stats(JsonWriter& w) const;
   void print_summary(std::ostream& out) const;
@@ -84,6 +93,9 @@ class ReplayPipeline final : public MeasurementSink {
   double sum_sq_epipolar_px_ = 0.0, epipolar_matches_ = 0.0;
   std::uint64_t frontend_frames_ = 0;
   std::size_t peak_features_ = 0;
+  FrameSeries series_;
+  std::uint64_t series_dropped_ = 0;
+  std::uint64_t frontend_rejected_before_ = 0;
   std::size_t static_bytes_ = 0;
 };
 

@@ -192,6 +192,11 @@ TEST_CASE("umsvins replay runs the front end on real EuRoC frames and writes sta
   CHECK(r.out.find("41 stereo pairs") != std::string::npos);
   CHECK(r.out.find("no trajectory written") != std::string::npos);  // no estimator yet: no fake
   CHECK_FALSE(std::filesystem::exists(out_dir + "/trajectory.tum"));
+  const std::string report = read_all(out_dir + "/report.html");
+  CHECK(report.find("Features per frame") != std::string::npos);
+  // Self-contained: nothing fetched (the SVG namespace URI is a name, not a request).
+  CHECK(report.find("src=\"http") == std::string::npos);
+  CHECK(report.find("href=\"http") == std::string::npos);
 
   const std::string stats = read_all(out_dir + "/stats.json");
   CHECK(stats.find("\"frames\": 41") != std::string::npos);
