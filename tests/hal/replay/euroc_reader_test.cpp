@@ -204,8 +204,8 @@ TEST_CASE("EuRoC micro: 95 pairs, 4 unpaired right, all 29,120 IMU rows interlea
   CHECK(log.max_imu_between == 10);
   if (ums::alloc_counter_available()) CHECK(allocations == 0);
   CHECK(reader.png_reader().heap_fallbacks() == 0);
-  // 190 PNG decodes: well under a second on the host, a few seconds under qemu.
-  CHECK(seconds < 30.0);
+  // Timing is reported, not asserted (shared machines; speed belongs to benchmarks).
+  WARN("streamed 95 pairs and 29,120 IMU rows in " << seconds << " s");
 }
 
 TEST_CASE("EuRoC micro: frame pixels equal the PNG files", "[euroc][real]") {
