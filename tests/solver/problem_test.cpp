@@ -232,6 +232,28 @@ class PointResidual final : public ResidualFunction {
   double m_[2];
 };
 
+TEST_CASE("Reduced ordering: blocks seen by landmarks first, in declaration order",
+          "[solver][problem]") {
+  // add_to_problem declares poses, then speed-biases, then the extrinsic: the extrinsic (observed
+  // through every reprojection) must come right after the variable poses, the speed-biases
+  // (IMU and prior only) after it, so a landmark's couplings form contiguous row segments.
+  auto w = bench::make_vio_window(small_window(true, false));
+  auto problem = std::make_unique<Problem>();
+  w->poses[0] = w->poses_true[0];
+  REQUIRE(bench::add_to_problem(*w, *problem) == SolverStatus::kOk);
+  REQUIRE(problem->set_constant(0, true) == SolverStatus::kOk);
+  SolverSummary sum;
+  REQUIRE(usable(problem->solve(one_step(Method::kGaussNewton), &sum)));
+  const int F = static_cast<int>(w->poses.size());
+  REQUIRE(F == 5);
+  CHECK(problem->reduced_offset(0) == -1);
+  for (int i = 1; i < F; ++i) CHECK(problem->reduced_offset(i) == 6 * (i - 1));
+  CHECK(problem->reduced_offset(2 * F) == 6 * (F - 1));  // extrinsic
+  for (int i = 0; i < F; ++i) CHECK(problem->reduced_offset(F + i) == 6 * F + 9 * i);
+  CHECK(problem->reduced_dim() == 6 * F + 9 * F);
+  CHECK(problem->reduced_offset(2 * F + 1) == -1);  // a landmark is eliminated
+}
+
 TEST_CASE("Huber and Cauchy reject planted outliers that pull least squares away",
           "[solver][problem]") {
   bench::Rng rng(3);
