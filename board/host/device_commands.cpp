@@ -200,10 +200,6 @@ int run_live(const std::vector<std::string>& argv, std::ostream& out, std::ostre
   w.begin_object();
   w.value("version", version_string());
   w.value("source", source);
-  w.value("frames", summary.frames);
-  w.value("imu_samples", summary.imu_samples);
-  w.value("duration_s", summary.duration_s);
-  w.value("processing_s", summary.processing_s, 4);
   pipeline.write_stats(w);
   w.begin_object("bridge")
       .value("imu_dropped", bridge->imu_dropped())

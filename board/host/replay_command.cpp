@@ -32,23 +32,6 @@ void write_file(const std::filesystem::path& path, const std::string& text) {
   if (!f) throw std::runtime_error(path.string() + ": write failed");
 }
 
-void write_timing(JsonWriter& w, const StageTimes& times) {
-  w.begin_object("timing_ms");
-  for (std::size_t i = 0; i < static_cast<std::size_t>(Stage::kCount); ++i) {
-    const Stage stage = static_cast<Stage>(i);
-    const StageSummary s = times.summary(stage);
-    if (s.count == 0) continue;
-    w.begin_object(stage_name(stage))
-        .value("median", s.median_ms, 4)
-        .value("p99", s.p99_ms, 4)
-        .value("max", s.max_ms, 4)
-        .value("mean", s.mean_ms, 4)
-        .value("count", s.count)
-        .end_object();
-  }
-  w.end_object();
-}
-
 // report.html: what the run has today (features and timing per frame, the ground truth's path
 // when the dataset has one; the estimate and its error once the estimator exists).
 void write_report(const std::string& dataset, const hal::EurocReader& reader, const ReplayPipeline& pipeline,
@@ -160,12 +143,7 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
   w.begin_object();
   w.value("version", version_string());
   w.value("dataset", dataset);
-  w.value("frames", summary.frames);
-  w.value("imu_samples", summary.imu_samples);
-  w.value("duration_s", summary.duration_s);
-  w.value("processing_s", summary.processing_s, 4);
   w.value("wall_s", wall_s, 4);
-  write_timing(w, pipeline.stage_times());
   pipeline.write_stats(w);
   w.begin_object("input")
       .value("stereo_pairs", static_cast<std::uint64_t>(counters.stereo_pairs))

@@ -148,6 +148,24 @@ ReplaySummary ReplayPipeline::summary() const {
 
 void ReplayPipeline::write_stats(JsonWriter& w) const {
   const ReplaySummary s = summary();
+  w.value("frames", s.frames);
+  w.value("imu_samples", s.imu_samples);
+  w.value("duration_s", s.duration_s);
+  w.value("processing_s", s.processing_s, 4);
+  w.begin_object("timing_ms");
+  for (std::size_t i = 0; i < static_cast<std::size_t>(Stage::kCount); ++i) {
+    const Stage stage = static_cast<Stage>(i);
+    const StageSummary t = times_->summary(stage);
+    if (t.count == 0) continue;
+    w.begin_object(stage_name(stage))
+        .value("median", t.median_ms, 4)
+        .value("p99", t.p99_ms, 4)
+        .value("max", t.max_ms, 4)
+        .value("mean", t.mean_ms, 4)
+        .value("count", t.count)
+        .end_object();
+  }
+  w.end_object();
   w.begin_object("features")
       .value("mean_3d", s.mean_3d, 5)
       .value("mean_2d_left", s.mean_2d_left, 5)

@@ -62,7 +62,8 @@ class ReplayPipeline final : public MeasurementSink {
   };
   const FrameSeries& series() const { return series_; }
 
-  // Adds the pipeline's keys to stats.json (features, memory, imu, drops, init, modes).
+  // Adds the pipeline's keys to stats.json: frames, imu_samples, duration_s, processing_s,
+  // timing_ms, features, imu, memory, drops.
   void write_stats(JsonWriter& w) const;
   void print_summary(std::ostream& out) const;
 
