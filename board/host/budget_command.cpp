@@ -1,7 +1,7 @@
 // umsvins budget: the memory the pipeline takes, component by component.
 //
 // Each component is built as the replay/live pipeline builds it, inside an allocation scope: its
-// footprint is its object size plus every byte it allocates at start-up. Nothing is estimated
+// footprint is the object itself plus every byte its constructor allocates. Nothing is estimated
 // by hand, so the table stays true when a component changes. After start-up nothing grows
 // (stats.json memory.heap_allocs_steady_state shows it for a run).
 
@@ -31,13 +31,15 @@ struct Row {
   std::string note;
 };
 
+// make() builds the component on the heap (make_unique), so the scope sees the object itself and
+// everything its constructor allocates.
 template <typename Make>
-std::size_t measure(Make make, std::size_t object_bytes) {
+std::size_t measure(Make make) {
   AllocScope scope;
   auto object = make();
-  const std::size_t heap = static_cast<std::size_t>(scope.bytes());
+  const std::size_t bytes = static_cast<std::size_t>(scope.bytes());
   (void)object;
-  return heap + object_bytes;
+  return bytes;
 }
 
 std::string kib(std::size_t bytes) {
@@ -75,20 +77,19 @@ int run_budget(const std::vector<std::string>& argv, std::ostream& out, std::ost
   }();
 
   std::vector<Row> rows;
-  rows.push_back({"frontend", measure([&] { return std::make_unique<Frontend>(frontend_options, config.rig); },
-                                      sizeof(Frontend)),
+  rows.push_back({"frontend", measure([&] { return std::make_unique<Frontend>(frontend_options, config.rig); }),
                   "pyramids of both cameras, detector buffers, tracks"});
   rows.push_back({"frame_features", sizeof(FrameFeatures),
                   std::to_string(capacity::kMaxFeaturesPerCamera) + " features"});
   rows.push_back({"preintegration_window", capacity::kWindowSize * sizeof(Preintegration),
                   std::to_string(capacity::kWindowSize) + " intervals x " +
                       std::to_string(capacity::kMaxImuSamplesBetweenFrames) + " samples"});
-  rows.push_back({"solver_problem", measure([] { return std::make_unique<solver::Problem>(); }, sizeof(solver::Problem)),
+  rows.push_back({"solver_problem", measure([] { return std::make_unique<solver::Problem>(); }),
                   "blocks, residuals, Schur and reduced-system storage"});
   rows.push_back({"stage_timers", sizeof(StageTimes),
                   std::to_string(StageTimes::kWindow) + " samples x " +
                       std::to_string(static_cast<int>(Stage::kCount)) + " stages"});
-  rows.push_back({"png_decoder", measure([] { return std::make_unique<hal::PngGrayReader>(); }, 0),
+  rows.push_back({"png_decoder", measure([] { return std::make_unique<hal::PngGrayReader>(); }),
                   "replay only: libpng/zlib arena"});
   rows.push_back({"replay_images", static_cast<std::size_t>(2 * config.rig.cam[0].width * config.rig.cam[0].height),
                   "replay only: left + right frame buffers"});
@@ -102,9 +103,8 @@ int run_budget(const std::vector<std::string>& argv, std::ostream& out, std::ost
     out << line;
     total += r.bytes;
   }
-  const std::size_t pipeline = measure([&] {
-    return std::make_unique<ReplayPipeline>(config, ReplayPipelineOptions{});
-  }, sizeof(ReplayPipeline));
+  const std::size_t pipeline =
+      measure([&] { return std::make_unique<ReplayPipeline>(config, ReplayPipelineOptions{}); });
   std::snprintf(line, sizeof(line), "  %-22s %12zu B  %12s\n", "total of the rows", total, kib(total).c_str());
   out << line;
   std::snprintf(line, sizeof(line), "  %-22s %12zu B  %12s  %s\n", "replay pipeline", pipeline,
