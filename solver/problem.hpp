@@ -145,6 +145,8 @@ class Problem {
   double fixed_cost();
   // Solves the damped system (lm_scale = 1/radius; 0 for Gauss-Newton); false on failure.
   bool compute_step(double lm_scale, double* model_cost_change);
+  // Factors S_ and solves S_ dx_ = -rhs_ (upper triangle of S_ read, overwritten); false on failure.
+  bool factor_and_solve();
   void eliminate_landmark(int l, double lm_scale, MatrixMap S, DenseVector& rhs, bool damp);
   double gradient_max_norm() const;
   double variable_x_norm() const;
@@ -180,6 +182,14 @@ class Problem {
   int seg_v_[capacity::kMaxCouplings] = {};
   int num_seg_ = 0;
   int v_used_ = 0;
+  // Rows [0, n_front_) are blocks coupled to landmarks (dense after the Schur complement), rows
+  // [n_front_, n_red_) the others (speed-biases, time offsets), usually coupled only along the IMU
+  // chain. env_first_[j] (tail columns j): first row >= n_front_ that may be non-zero in column j
+  // of the tail block (its envelope, preserved by Cholesky). split_: the tail is sparse enough to
+  // be eliminated by an envelope Cholesky before a dense one on the front rows.
+  int n_front_ = 0;
+  int env_first_[capacity::kMaxReducedDim] = {};
+  bool split_ = false;
   int mark_[capacity::kMaxParameterBlocks] = {};     // prepare(): last landmark listing a block
   int slot_of_[capacity::kMaxParameterBlocks] = {};  // prepare(): its coupling index there
 
