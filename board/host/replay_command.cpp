@@ -4,7 +4,9 @@
 // (and the front end with --frontend-only once it lands). No trajectory is written without an
 // estimator: the command says so instead of writing a fake one.
 
+#include <algorithm>
 #include <chrono>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -18,7 +20,7 @@
 #include "hal/replay/euroc_reader.hpp"
 #include "profiling/alloc_counter.hpp"
 #include "profiling/eval/report_html.hpp"
-#include "profiling/eval/trajectory.hpp"
+#include "hal/replay/euroc_groundtruth.hpp"
 #include "profiling/json_writer.hpp"
 #include "profiling/progress.hpp"
 
@@ -30,6 +32,16 @@ void write_file(const std::filesystem::path& path, const std::string& text) {
   if (!f) throw std::runtime_error(path.string() + ": cannot open for writing");
   f << text;
   if (!f) throw std::runtime_error(path.string() + ": write failed");
+}
+
+// Peak resident set of the process so far (VmHWM), in KiB; -1 where /proc is not there.
+long peak_rss_kib() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.rfind("VmHWM:", 0) == 0) return std::atol(line.c_str() + 6);
+  }
+  return -1;
 }
 
 // report.html: what the run has today (features and timing per frame, the ground truth's path
@@ -52,15 +64,22 @@ void write_report(const std::string& dataset, const hal::EurocReader& reader, co
   data.stage_timings.push_back({"total", s.total_ms});
   data.end_t_s = summary.duration_s;
   if (reader.has_groundtruth()) {
+    // Streamed row by row (the ground truth of a long flight is large); a plot needs no more than
+    // one point per 50 ms.
     try {
-      const eval::Trajectory gt = eval::read_trajectory(reader.groundtruth_path());
+      hal::EurocGroundtruthReader gt;
+      gt.open(reader.groundtruth_path());
       const double t0_ns = static_cast<double>(reader.window_start_t_ns());
-      for (const eval::StampedPose& p : gt.poses) {
-        const double t_s = (static_cast<double>(p.t_ns) - t0_ns) * 1e-9;
-        if (t_s < 0.0 || t_s > summary.duration_s) continue;
+      double last_t_s = -1.0;
+      hal::GroundTruthState state;
+      while (gt.next(&state) == hal::CsvReader::Result::kRow) {
+        const double t_s = (static_cast<double>(state.t_ns) - t0_ns) * 1e-9;
+        if (t_s < 0.0 || t_s > summary.duration_s || t_s - last_t_s < 0.05) continue;
+        last_t_s = t_s;
         data.groundtruth.t_s.push_back(t_s);
-        data.groundtruth.p_w_m.push_back(p.p_w_x);
+        data.groundtruth.p_w_m.push_back(state.p_w_b);
       }
+      if (gt.error()[0] != '\0') err << "warning: ground truth in the report stops at " << gt.error() << "\n";
     } catch (const std::exception& e) {
       err << "warning: ground truth not shown in the report: " << e.what() << "\n";
     }
@@ -134,6 +153,7 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
   }
   const double wall_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  const long peak_rss_kb = peak_rss_kib();  // before the report and stats are built
   if (!quiet) progress.finish();
 
   const hal::EurocReaderCounters& counters = reader.counters();
@@ -144,6 +164,7 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
   w.value("version", version_string());
   w.value("dataset", dataset);
   w.value("wall_s", wall_s, 4);
+  w.value("peak_rss_kb", static_cast<std::int64_t>(peak_rss_kb));
   pipeline.write_stats(w);
   w.begin_object("input")
       .value("stereo_pairs", static_cast<std::uint64_t>(counters.stereo_pairs))
