@@ -4,6 +4,13 @@
 # In a cross build the toolchain file restricts the search to the target's multiarch folders, so
 # host libraries are never picked up.
 find_package(Eigen3 3.4 REQUIRED NO_MODULE)
+if(UMS_SOLVER_ONLY)
+  if(UMS_BUILD_TESTS)
+    find_package(Catch2 2 REQUIRED)
+    include(Catch)
+  endif()
+  return()
+endif()
 
 find_path(UMS_OPENCV_INCLUDE_DIR opencv2/core.hpp PATH_SUFFIXES opencv4 REQUIRED)
 foreach(_module core imgproc)

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Installs the Debian packages the build, the tests and the aarch64 cross build need.
-# Idempotent and quiet when everything is there. Usage: scripts/deps.sh [host|aarch64|all]
+# Idempotent and quiet when everything is there. Usage: scripts/deps.sh [host|aarch64|armhf|all]
 set -euo pipefail
 
 want="${1:-all}"
@@ -10,10 +10,15 @@ host_pkgs=(cmake ninja-build g++ pkg-config libeigen3-dev libopencv-core-dev lib
 bench_pkgs=(libceres-dev)
 arm64_pkgs=(g++-aarch64-linux-gnu qemu-user libopencv-core-dev:arm64 libopencv-imgproc-dev:arm64
             libpng-dev:arm64 zlib1g-dev:arm64)
+# armhf: the cross compiler's own sysroot only (Debian 12's :armhf OpenCV is not co-installable here).
+armhf_pkgs=(g++-arm-linux-gnueabihf qemu-user)
 
 pkgs=("${host_pkgs[@]}" "${bench_pkgs[@]}")
 if [[ "$want" == "aarch64" || "$want" == "all" ]]; then
   pkgs+=("${arm64_pkgs[@]}")
+fi
+if [[ "$want" == "armhf" || "$want" == "all" ]]; then
+  pkgs+=("${armhf_pkgs[@]}")
 fi
 
 missing=()

@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
-# Builds and runs every test: on the host, then cross-built for aarch64 under qemu-user.
-# Usage: scripts/test.sh [host|aarch64|all]   (default all)
+# Builds and runs every test: on the host, then cross-built for aarch64 under qemu-user, then the
+# solver (the part without OpenCV) cross-built for 32-bit armhf under qemu-user.
+# Usage: scripts/test.sh [host|aarch64|armhf|all]   (default all)
 set -euo pipefail
 
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 want="${1:-all}"
-case "$want" in host|aarch64|all) ;; *) echo "usage: scripts/test.sh [host|aarch64|all]" >&2; exit 2 ;; esac
+case "$want" in host|aarch64|armhf|all) ;; *) echo "usage: scripts/test.sh [host|aarch64|armhf|all]" >&2; exit 64 ;; esac
 
 "$root/scripts/deps.sh" "$want"
 
@@ -30,6 +31,11 @@ fi
 if [[ "$want" == "aarch64" || "$want" == "all" ]]; then
   run_suite aarch64 "$root/build/aarch64" \
     -DCMAKE_TOOLCHAIN_FILE="$root/toolchains/aarch64-linux-gnu.cmake" -DUMS_BUILD_BENCHMARKS=OFF \
+    || status=1
+fi
+if [[ "$want" == "armhf" || "$want" == "all" ]]; then
+  run_suite armhf-solver "$root/build/armhf" \
+    -DCMAKE_TOOLCHAIN_FILE="$root/toolchains/arm-linux-gnueabihf.cmake" -DUMS_SOLVER_ONLY=ON \
     || status=1
 fi
 exit $status
