@@ -34,7 +34,7 @@ exit codes: 0 ok, 1 failure (the message names file, line or key), 2 capability 
 yet, 64 wrong usage.
 )";
 
-int not_implemented(const std::string& command, const char* issue, std::ostream& err) {
+[[maybe_unused]] int not_implemented(const std::string& command, const char* issue, std::ostream& err) {
   err << "umsvins " << command << ": not implemented yet (" << issue
       << "); nothing was run and nothing was written.\n";
   return kExitNotImplemented;
@@ -57,7 +57,7 @@ int run_cli(const std::vector<std::string>& args, std::ostream& out, std::ostrea
     if (command == "replay") return run_replay(rest, out, err);
     if (command == "simulate") return run_simulate(rest, out, err);
     if (command == "eval") return run_eval(rest, out, err);
-    if (command == "sweep") return not_implemented(command, "needs the estimator, issue 7", err);
+    if (command == "sweep") return run_sweep(rest, out, err);
     if (command == "live") return run_live(rest, out, err);
     if (command == "record") return run_record(rest, out, err);
     if (command == "budget") return run_budget(rest, out, err);

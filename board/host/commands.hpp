@@ -17,6 +17,7 @@ inline constexpr int kExitUsage = 64;
 int run_cli(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
 
 int run_replay(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
+int run_sweep(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
 int run_simulate(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
 int run_eval(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
 int run_record(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
