@@ -61,6 +61,20 @@ struct FrontendFrameStats {
   int stereo_rejected_klt = 0;   // left->right KLT or right->left confirmation failed
   int stereo_rejected_epipolar = 0;  // match farther than stereo_epipolar_max_px from its epipolar line
   float stereo_epipolar_rms_px = 0.0f;  // px, RMS distance of accepted 3D matches to their epipolar line
+
+  // Wall time of the sub-stages of this frame's Frontend::process (ms, steady clock; all 0 when
+  // FrontendOptions::measure_stages is false or process() rejected the frame). Consecutive laps
+  // of one clock: they never overlap, and their sum is at most the time of the call. Not charged
+  // to any: the input checks, the track-length increments and copying the tracks into
+  // FrameFeatures (a few microseconds).
+  float pyramid_ms = 0.0f;  // both pyramids (left, and right when the right image is valid)
+  float detect_ms = 0.0f;   // new corners: crowding of the left tracks + left detection, and the right-image mask + 2D-right detection
+  float track_ms = 0.0f;    // temporal KLT of left and 2D-right tracks incl. their forward-backward checks and the IMU prediction
+  float stereo_ms = 0.0f;   // left->right matching: KLT into the right image, right->left confirmation, epipolar check
+  float ransac_ms = 0.0f;   // temporal epipolar RANSAC of both cameras (incl. compacting the inliers)
+
+  // Sum of the five sub-stages (ms).
+  float stages_ms() const { return pyramid_ms + detect_ms + track_ms + stereo_ms + ransac_ms; }
 };
 
 struct FrameFeatures {

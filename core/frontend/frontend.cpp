@@ -1,6 +1,7 @@
 #include "core/frontend/frontend.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -25,6 +26,25 @@ constexpr int kStereoDepthHypotheses = 3;
 constexpr float kStereoDepthsM[kStereoDepthHypotheses] = {2.0f, 1.0f, 0.5f};
 
 }  // namespace
+
+// Charges the time since the previous lap (or construction) to one stage field. When off it
+// never reads the clock, so measure_stages = false costs nothing but a branch per stage.
+class Frontend::StageClock {
+ public:
+  explicit StageClock(bool on) : on_(on) {
+    if (on_) last_ = std::chrono::steady_clock::now();
+  }
+  void lap(float* stage_ms) {
+    if (!on_) return;
+    const std::chrono::steady_clock::time_point now = std::chrono::steady_clock::now();
+    *stage_ms += std::chrono::duration<float, std::milli>(now - last_).count();
+    last_ = now;
+  }
+
+ private:
+  bool on_;
+  std::chrono::steady_clock::time_point last_{};
+};
 
 void FrontendOptions::validate() const {
   auto fail = [](const char* field, double v) {
@@ -96,7 +116,7 @@ Eigen::Vector2f Frontend::predict(const Camera& cam, const Eigen::Matrix3f& R_cu
   return out;
 }
 
-void Frontend::track_left(const Eigen::Matrix3f* R_curr_prev, FrontendFrameStats* st) {
+void Frontend::track_left(const Eigen::Matrix3f* R_curr_prev, FrontendFrameStats* st, StageClock* clock) {
   const ImagePyramid& prev = *pyr_[1 - cur_][0];
   const ImagePyramid& curr = *pyr_[cur_][0];
   std::size_t w = 0;
@@ -138,6 +158,7 @@ void Frontend::track_left(const Eigen::Matrix3f* R_curr_prev, FrontendFrameStats
   }
   left_.resize(w);
   st->tracked_left = static_cast<int>(w);
+  clock->lap(&st->track_ms);
   if (options_.use_ransac && w >= 8) {
     int n_in = 0;
     if (ransac_essential(b_prev_, b_curr_, static_cast<int>(w), cam_[0].fx(), options_.ransac, &rng_, inlier_, &n_in) ==
@@ -150,9 +171,10 @@ void Frontend::track_left(const Eigen::Matrix3f* R_curr_prev, FrontendFrameStats
       left_.resize(k);
     }
   }
+  clock->lap(&st->ransac_ms);
 }
 
-void Frontend::track_right(const Eigen::Matrix3f* R_curr_prev, FrontendFrameStats* st) {
+void Frontend::track_right(const Eigen::Matrix3f* R_curr_prev, FrontendFrameStats* st, StageClock* clock) {
   const ImagePyramid& prev = *pyr_[1 - cur_][1];
   const ImagePyramid& curr = *pyr_[cur_][1];
   Eigen::Matrix3f R1;
@@ -185,6 +207,7 @@ void Frontend::track_right(const Eigen::Matrix3f* R_curr_prev, FrontendFrameStat
   }
   right_.resize(w);
   st->tracked_right = static_cast<int>(w);
+  clock->lap(&st->track_ms);
   if (options_.use_ransac && w >= 8) {
     int n_in = 0;
     if (ransac_essential(b_prev_, b_curr_, static_cast<int>(w), cam_[1].fx(), options_.ransac, &rng_, inlier_, &n_in) ==
@@ -197,6 +220,7 @@ void Frontend::track_right(const Eigen::Matrix3f* R_curr_prev, FrontendFrameStat
       right_.resize(k);
     }
   }
+  clock->lap(&st->ransac_ms);
 }
 
 void Frontend::thin_crowded(FrontendFrameStats* st) {
@@ -401,12 +425,14 @@ Status Frontend::process(const StereoFrame& frame, const Eigen::Quaterniond* q_c
   if (right_valid && (frame.right.width != cam_[1].width() || frame.right.height != cam_[1].height())) {
     return Status::kInvalidInput;
   }
+  FrontendFrameStats& st = out->stats;
+  StageClock clock(options_.measure_stages);
   // Reseeding per frame from the frame index keeps results independent of earlier frames' draws.
   rng_.state = (options_.ransac.seed ^ static_cast<std::uint32_t>(frame.seq * 2654435761u)) | 1u;
 
   pyr_[cur_][0]->build(frame.left);
   if (right_valid) pyr_[cur_][1]->build(frame.right);
-  FrontendFrameStats& st = out->stats;
+  clock.lap(&st.pyramid_ms);
 
   if (has_prev_) {
     Eigen::Matrix3f R_curr_prev;
@@ -415,9 +441,9 @@ Status Frontend::process(const StereoFrame& frame, const Eigen::Quaterniond* q_c
       R_curr_prev = q_c0prev_c0curr->toRotationMatrix().cast<float>().transpose();
       R = &R_curr_prev;
     }
-    track_left(R, &st);
+    track_left(R, &st, &clock);
     if (right_valid && prev_right_valid_) {
-      track_right(R, &st);
+      track_right(R, &st, &clock);
     } else {
       right_.clear();
     }
@@ -425,11 +451,15 @@ Status Frontend::process(const StereoFrame& frame, const Eigen::Quaterniond* q_c
     left_.clear();
     right_.clear();
   }
+  clock.lap(&st.track_ms);  // the clearing of the else branches; track_left/right lapped themselves
   thin_crowded(&st);
   detect_left(&st);
+  clock.lap(&st.detect_ms);
   if (right_valid) {
     match_stereo(&st);
+    clock.lap(&st.stereo_ms);
     if (options_.detect_right) detect_right(&st);
+    clock.lap(&st.detect_ms);
   } else {
     for (LeftTrack& t : left_) t.stereo = false;
   }

@@ -46,6 +46,7 @@ struct FrontendOptions {
   int stereo_retry_interval = 4;       // frames between stereo retries of a track whose match failed (1 = every frame)
   bool detect_right = true;            // add 2D-right features in uncovered right-image regions
   bool use_ransac = true;              // temporal epipolar RANSAC per camera
+  bool measure_stages = true;          // time the sub-stages into FrontendFrameStats::*_ms (two steady-clock reads per stage, ~11 per frame)
   KltOptions klt;
   DetectorOptions detector;
   RansacOptions ransac;
@@ -105,8 +106,11 @@ class Frontend {
   };
   static constexpr std::size_t kCap = capacity::kMaxFeaturesPerCamera;
 
-  void track_left(const Eigen::Matrix3f* R_curr_prev, FrontendFrameStats* st);
-  void track_right(const Eigen::Matrix3f* R_curr_prev, FrontendFrameStats* st);
+  class StageClock;  // laps of the steady clock into FrontendFrameStats (frontend.cpp)
+
+  // KLT + forward-backward of the tracks, then their temporal RANSAC: laps track_ms, ransac_ms.
+  void track_left(const Eigen::Matrix3f* R_curr_prev, FrontendFrameStats* st, StageClock* clock);
+  void track_right(const Eigen::Matrix3f* R_curr_prev, FrontendFrameStats* st, StageClock* clock);
   void thin_crowded(FrontendFrameStats* st);
   void detect_left(FrontendFrameStats* st);
   void match_stereo(FrontendFrameStats* st);

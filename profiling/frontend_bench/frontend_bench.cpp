@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstring>
 #include <ctime>
 #include <cstdio>
 #include <fstream>
@@ -82,7 +83,28 @@ struct Result {
   double cold_median_ms = 0, cold_max_ms = 0;
   double mean_3d = 0, mean_2d = 0;
   unsigned long long allocs_after_first = 0;
+  std::uint64_t output_hash = 0;  // FNV-1a over every feature of every steady frame (ids, classes, pixels)
 };
+
+// FNV-1a over the bytes of a value: the fingerprint that shows a change left the features bit-identical.
+template <typename T>
+void fnv1a(std::uint64_t* h, const T& v) {
+  unsigned char bytes[sizeof(T)];
+  std::memcpy(bytes, &v, sizeof(T));
+  for (unsigned char b : bytes) *h = (*h ^ b) * 1099511628211ull;
+}
+
+void hash_features(std::uint64_t* h, const ums::FrameFeatures& f) {
+  for (const ums::FeatureObservation& o : f.features) {
+    fnv1a(h, o.id);
+    fnv1a(h, static_cast<std::uint8_t>(o.cls));
+    fnv1a(h, o.track_length);
+    fnv1a(h, o.uv_left_px.x());
+    fnv1a(h, o.uv_left_px.y());
+    fnv1a(h, o.uv_right_px.x());
+    fnv1a(h, o.uv_right_px.y());
+  }
+}
 
 Result run(const Sequence& s, const ums::RigCalibration& rig, int repeats) {
   ums::FrontendOptions opt;
@@ -90,6 +112,7 @@ Result run(const Sequence& s, const ums::RigCalibration& rig, int repeats) {
   static ums::FrameFeatures out;
   std::vector<double> ms, cold;
   Result r;
+  r.output_hash = 1469598103934665603ull;
   long n3 = 0, n2 = 0, frames = 0;
   std::uint64_t seq = 0;
   for (int rep = 0; rep < repeats; ++rep) {
@@ -108,6 +131,7 @@ Result run(const Sequence& s, const ums::RigCalibration& rig, int repeats) {
       r.cpu_mean_ms += thread_cpu_ms() - c0;
       if (i > 0) r.allocs_after_first += scope.allocations();
       ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+      hash_features(&r.output_hash, out);
       n3 += out.n_3d;
       n2 += out.n_2d_left + out.n_2d_right;
       ++frames;
@@ -142,9 +166,9 @@ Result run(const Sequence& s, const ums::RigCalibration& rig, int repeats) {
 
 void print(const char* name, const Result& r) {
   std::printf("%s: steady median %.2f ms, p99 %.2f, max %.2f, mean %.2f (thread CPU %.2f) | cold (full detection) median %.2f, max %.2f | "
-              "mean 3D %.1f, 2D %.1f | allocations after frame 1: %llu\n",
+              "mean 3D %.1f, 2D %.1f | allocations after frame 1: %llu | output hash %016llx\n",
               name, r.median_ms, r.p99_ms, r.max_ms, r.mean_ms, r.cpu_mean_ms, r.cold_median_ms, r.cold_max_ms, r.mean_3d, r.mean_2d,
-              r.allocs_after_first);
+              r.allocs_after_first, static_cast<unsigned long long>(r.output_hash));
 }
 
 void json(const char* key, const Result& r, bool last) {

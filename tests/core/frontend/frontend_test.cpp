@@ -1,8 +1,10 @@
 #include "core/frontend/frontend.hpp"
 #include "core/frontend/keyframe_selector.hpp"
 
+#include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <map>
 
 #include <catch2/catch.hpp>
@@ -230,4 +232,99 @@ TEST_CASE("a frame without its right image keeps the left tracks (2D-left) and s
     if (it != len1.end() && o.track_length == it->second + 1) ++continued;
   }
   CHECK(continued >= left0);
+}
+
+namespace {
+
+// Bit-exact equality of two frames' features (NaN fields compare by their bits).
+bool same_features(const ums::FrameFeatures& a, const ums::FrameFeatures& b) {
+  if (a.features.size() != b.features.size() || a.n_3d != b.n_3d || a.n_2d_left != b.n_2d_left ||
+      a.n_2d_right != b.n_2d_right) {
+    return false;
+  }
+  for (std::size_t i = 0; i < a.features.size(); ++i) {
+    const ums::FeatureObservation& x = a.features[i];
+    const ums::FeatureObservation& y = b.features[i];
+    if (x.id != y.id || x.cls != y.cls || x.track_length != y.track_length) return false;
+    if (std::memcmp(x.uv_left_px.data(), y.uv_left_px.data(), sizeof(float) * 2) != 0 ||
+        std::memcmp(x.uv_right_px.data(), y.uv_right_px.data(), sizeof(float) * 2) != 0 ||
+        std::memcmp(x.bearing_left.data(), y.bearing_left.data(), sizeof(float) * 3) != 0 ||
+        std::memcmp(x.bearing_right.data(), y.bearing_right.data(), sizeof(float) * 3) != 0) {
+      return false;
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
+TEST_CASE("sub-stage times (EuRoC micro): non-negative, sum within the call's wall time and >= 50 % of it, zero when off, same features") {
+  // 30 pairs: enough steady frames for the time shares, cheap under qemu.
+  const ums::test::EurocPairs data = ums::test::load_euroc_micro(30);
+  REQUIRE(data.size() == 30);
+  ums::FrontendOptions timed_opt;  // measure_stages defaults to true
+  REQUIRE(timed_opt.measure_stages);
+  ums::FrontendOptions untimed_opt;
+  untimed_opt.measure_stages = false;
+  ums::Frontend timed(timed_opt, ums::test::euroc_rig());
+  ums::Frontend untimed(untimed_opt, ums::test::euroc_rig());
+  static ums::FrameFeatures a, b;
+  std::uint64_t allocs_after_first = 0;
+  double wall_sum_ms = 0, stage_sum_ms = 0, max_excess_ms = -1e9, min_share = 1e9;
+  double per_stage_sum_ms[5] = {0, 0, 0, 0, 0};
+  int negative = 0, nonzero_untimed = 0, different = 0;
+  for (std::size_t i = 0; i < data.size(); ++i) {
+    const ums::StereoFrame frame = data.frame(i);
+    ums::AllocScope scope;
+    const auto t0 = std::chrono::steady_clock::now();
+    const ums::Status sa = timed.process(frame, nullptr, &a);
+    const auto t1 = std::chrono::steady_clock::now();
+    const ums::Status sb = untimed.process(frame, nullptr, &b);
+    const std::uint64_t allocs = scope.allocations();  // before any Catch macro runs
+    REQUIRE(sa == ums::Status::kOk);
+    REQUIRE(sb == ums::Status::kOk);
+    if (i > 0) allocs_after_first += allocs;
+    const ums::FrontendFrameStats& st = a.stats;
+    const float stages[5] = {st.pyramid_ms, st.detect_ms, st.track_ms, st.stereo_ms, st.ransac_ms};
+    for (int k = 0; k < 5; ++k) {
+      negative += stages[k] < 0.0f ? 1 : 0;
+      per_stage_sum_ms[k] += static_cast<double>(stages[k]);
+    }
+    const ums::FrontendFrameStats& su = b.stats;
+    nonzero_untimed += (su.pyramid_ms != 0.0f || su.detect_ms != 0.0f || su.track_ms != 0.0f || su.stereo_ms != 0.0f ||
+                        su.ransac_ms != 0.0f)
+                           ? 1
+                           : 0;
+    different += same_features(a, b) ? 0 : 1;
+    const double wall_ms = std::chrono::duration<double, std::milli>(t1 - t0).count();
+    const double sum_ms = static_cast<double>(st.stages_ms());
+    wall_sum_ms += wall_ms;
+    stage_sum_ms += sum_ms;
+    max_excess_ms = std::max(max_excess_ms, sum_ms - wall_ms);
+    min_share = std::min(min_share, sum_ms / wall_ms);
+    if (i == 0) {
+      // The first frame has nothing to track: those stages only lap the clock.
+      CHECK(st.track_ms < 0.05f * st.stages_ms());
+      CHECK(st.ransac_ms < 0.05f * st.stages_ms());
+    } else {
+      CHECK(st.pyramid_ms > 0.0f);
+      CHECK(st.track_ms > 0.0f);
+      CHECK(st.stereo_ms > 0.0f);
+    }
+  }
+  const double n = static_cast<double>(data.size());
+  std::printf("[frontend] sub-stages over %zu frames (ms, mean): pyramid %.3f detect %.3f track %.3f stereo %.3f ransac %.3f; "
+              "sum %.1f%% of the wall time of process() (lowest frame %.1f%%), largest sum - wall %.4f ms\n",
+              data.size(), per_stage_sum_ms[0] / n, per_stage_sum_ms[1] / n, per_stage_sum_ms[2] / n,
+              per_stage_sum_ms[3] / n, per_stage_sum_ms[4] / n, 100.0 * stage_sum_ms / wall_sum_ms, 100.0 * min_share,
+              max_excess_ms);
+  CHECK(negative == 0);
+  // Laps of one monotonic clock inside the call: their sum cannot exceed the call (float
+  // rounding of ~10 ms values is ~1e-6 ms).
+  CHECK(max_excess_ms <= 1e-3);
+  // Only input checks, length counters and the output copy are not charged: measured ~99 %.
+  CHECK(stage_sum_ms >= 0.5 * wall_sum_ms);
+  CHECK(nonzero_untimed == 0);
+  CHECK(different == 0);
+  if (ums::alloc_counter_available()) CHECK(allocs_after_first == 0);
 }
