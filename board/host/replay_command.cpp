@@ -1,8 +1,8 @@
 // umsvins replay: streams an EuRoC-layout dataset through the pipeline and reports.
 //
-// Until the estimator exists (issue 7) the pipeline runs what exists: the measurement stream
-// (and the front end with --frontend-only once it lands). No trajectory is written without an
-// estimator: the command says so instead of writing a fake one.
+// The pipeline runs the front end and the estimator (--frontend-only: the front end alone, no
+// trajectory). trajectory.tum is written frame by frame while the replay runs; when the dataset
+// has ground truth the run ends with the ATE (SE(3) alignment) in stats.json and on stdout.
 
 #include <algorithm>
 #include <chrono>
@@ -19,7 +19,10 @@
 #include "core/common/version.hpp"
 #include "hal/replay/euroc_reader.hpp"
 #include "profiling/alloc_counter.hpp"
+#include "profiling/eval/eval_command.hpp"
+#include "profiling/eval/metrics.hpp"
 #include "profiling/eval/report_html.hpp"
+#include "profiling/eval/trajectory.hpp"
 #include "hal/replay/euroc_groundtruth.hpp"
 #include "profiling/json_writer.hpp"
 #include "profiling/progress.hpp"
@@ -47,20 +50,39 @@ long peak_rss_kib() {
 // report.html: what the run has today (features and timing per frame, the ground truth's path
 // when the dataset has one; the estimate and its error once the estimator exists).
 void write_report(const std::string& dataset, const hal::EurocReader& reader, const ReplayPipeline& pipeline,
-                  const ReplaySummary& summary, const std::filesystem::path& path, std::ostream& err) {
+                  const ReplaySummary& summary, const eval::EvalResult* accuracy,
+                  const std::filesystem::path& path, std::ostream& err) {
   eval::ReportData data;
   data.title = "umsvins replay: " + dataset;
   data.summary = {{"dataset", dataset},
                   {"frames", std::to_string(summary.frames)},
                   {"duration", std::to_string(summary.duration_s) + " s"},
                   {"pipeline time", std::to_string(summary.processing_s) + " s"},
-                  {"estimator", "not implemented yet (issue 7): no estimate"}};
+                  {"estimator", pipeline.has_estimator() ? "UMS-VINS" : "off (--frontend-only)"}};
+  if (accuracy != nullptr) {
+    data.summary.push_back({"ATE RMSE (SE(3))", std::to_string(accuracy->ate.translation_m.rmse) + " m over " +
+                                                    std::to_string(accuracy->matched) + " poses"});
+    data.error_t_s = accuracy->ate.t_s;
+    data.error_m = accuracy->ate.error_m;
+  }
+  if (const Estimator* est = pipeline.estimator()) {
+    const EstimatorStats& e = est->stats();
+    data.summary.push_back({"initialized", e.initialized ? std::string("yes (") + e.init_case + ")" : "no"});
+    const double t0 = static_cast<double>(e.first_frame_t_ns);
+    data.modes.push_back({0.0, "IMU_ONLY"});
+    for (const ModeChange& c : e.mode_changes) data.modes.push_back({(static_cast<double>(c.t_ns) - t0) * 1e-9, to_string(c.to)});
+    const ReplayPipeline::FrameSeries& fs = pipeline.series();
+    data.estimate.t_s = fs.est_t_s;
+    for (const Eigen::Vector3d& p : fs.est_p_w_m)
+      data.estimate.p_w_m.push_back(accuracy != nullptr ? accuracy->ate.alignment.apply(p) : p);
+  }
   const ReplayPipeline::FrameSeries& s = pipeline.series();
   data.features.t_s = s.t_s;
   data.features.n_3d = s.n_3d;
   data.features.n_2d_left = s.n_2d_left;
   data.features.n_2d_right = s.n_2d_right;
   data.stage_timings.push_back({"frontend", s.frontend_ms});
+  if (pipeline.has_estimator()) data.stage_timings.push_back({"backend", s.backend_ms});
   data.stage_timings.push_back({"total", s.total_ms});
   data.end_t_s = summary.duration_s;
   if (reader.has_groundtruth()) {
@@ -122,6 +144,14 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
   ReplayPipeline pipeline(config, pipeline_options);
   pipeline.set_static_bytes(static_cast<std::size_t>(startup_allocs.bytes()) + sizeof(ReplayPipeline));
 
+  const std::filesystem::path trajectory_path = out_dir / "trajectory.tum";
+  std::FILE* trajectory = nullptr;
+  if (pipeline.has_estimator()) {
+    trajectory = std::fopen(trajectory_path.c_str(), "w");
+    if (trajectory == nullptr) throw std::runtime_error(trajectory_path.string() + ": cannot open for writing");
+    std::fputs("# t_s x y z qx qy qz qw (body = IMU in world; umsvins replay)\n", trajectory);
+    pipeline.set_trajectory_output(trajectory);
+  }
   const bool quiet = args.has("quiet");
   Progress progress("replay", static_cast<unsigned long>(reader.total_pairs_estimate()));
   const bool realtime = args.has("realtime");
@@ -158,6 +188,23 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
 
   const hal::EurocReaderCounters& counters = reader.counters();
   const ReplaySummary summary = pipeline.summary();
+  if (trajectory != nullptr) {
+    pipeline.set_trajectory_output(nullptr);
+    if (std::fclose(trajectory) != 0) throw std::runtime_error(trajectory_path.string() + ": write failed");
+  }
+  // Accuracy against the dataset's ground truth, when it has one.
+  std::unique_ptr<eval::EvalResult> accuracy;
+  if (pipeline.has_estimator() && reader.has_groundtruth() && pipeline.poses_written() >= 3) {
+    try {
+      const eval::Trajectory est = eval::read_trajectory(trajectory_path.string(), eval::TrajectoryFormat::kTum);
+      const eval::Trajectory gt = eval::read_trajectory(reader.groundtruth_path());
+      eval::MetricsOptions mo;
+      accuracy = std::make_unique<eval::EvalResult>(
+          eval::evaluate_frames(est, gt, config.rig.cam[0].T_b_c, mo));
+    } catch (const std::exception& e) {
+      err << "warning: no accuracy figures: " << e.what() << "\n";
+    }
+  }
 
   JsonWriter w;
   w.begin_object();
@@ -166,6 +213,15 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
   w.value("wall_s", wall_s, 4);
   w.value("peak_rss_kb", static_cast<std::int64_t>(peak_rss_kb));
   pipeline.write_stats(w);
+  if (accuracy != nullptr) {
+    w.begin_object("accuracy")
+        .value("align", "se3")
+        .value("matched_poses", static_cast<std::uint64_t>(accuracy->matched))
+        .value("ate_rmse_m", accuracy->ate.translation_m.rmse, 6)
+        .value("ate_max_m", accuracy->ate.translation_m.max, 6)
+        .value("rotation_rmse_deg", accuracy->ate.rotation_deg.rmse, 6)
+        .end_object();
+  }
   w.begin_object("input")
       .value("stereo_pairs", static_cast<std::uint64_t>(counters.stereo_pairs))
       .value("unpaired_left", static_cast<std::uint64_t>(counters.unpaired_left))
@@ -174,7 +230,7 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
       .end_object();
   w.end_object();
   write_file(out_dir / "stats.json", w.str());
-  write_report(dataset, reader, pipeline, summary, out_dir / "report.html", err);
+  write_report(dataset, reader, pipeline, summary, accuracy.get(), out_dir / "report.html", err);
 
   out << "replay: " << summary.frames << " stereo pairs, " << summary.imu_samples
       << " IMU samples, " << summary.duration_s << " s of data in " << wall_s << " s ("
@@ -185,11 +241,24 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
         << " unreadable images\n";
   }
   pipeline.print_summary(out);
-  out << "replay: wrote " << (out_dir / "stats.json").string() << " and " << (out_dir / "report.html").string()
-      << "\n";
-  if (!pipeline.has_estimator()) {
-    out << "replay: no trajectory written: the estimator is not implemented yet (issue 7)\n";
+  if (const Estimator* est = pipeline.estimator()) {
+    const EstimatorStats& e = est->stats();
+    out << "replay: " << pipeline.poses_written() << " poses; ";
+    if (e.initialized) {
+      out << "VIO from " << (static_cast<double>(e.init_t_ns - e.first_frame_t_ns) * 1e-9) << " s (" << e.init_case << ")";
+    } else {
+      out << "never reached VIO";
+    }
+    out << "; frames IMU_ONLY/VO/VIO " << e.frames_in_mode[0] << "/" << e.frames_in_mode[1] << "/" << e.frames_in_mode[2] << "\n";
+    if (accuracy != nullptr) {
+      out << "replay: ATE RMSE " << accuracy->ate.translation_m.rmse << " m (SE(3) alignment, " << accuracy->matched
+          << " poses), max " << accuracy->ate.translation_m.max << " m\n";
+    }
+    out << "replay: wrote " << trajectory_path.string() << ", ";
+  } else {
+    out << "replay: --frontend-only: no trajectory; wrote ";
   }
+  out << (out_dir / "stats.json").string() << " and " << (out_dir / "report.html").string() << "\n";
   return kExitOk;
 }
 

@@ -18,9 +18,15 @@ FrontendOptions frontend_options_from(const AppConfig& config) {
   return o;
 }
 
-KeyframeOptions keyframe_options_from(const AppConfig& config) {
-  KeyframeOptions o;
-  o.min_parallax_px = static_cast<float>(config.keyframe_parallax_px);
+EstimatorOptions estimator_options_from(const AppConfig& config) {
+  EstimatorOptions o;
+  o.keyframe.min_parallax_px = static_cast<float>(config.keyframe_parallax_px);
+  o.focal_px = config.rig.cam[0].fx > 0.0 ? config.rig.cam[0].fx : o.focal_px;
+  o.keyframe.focal_px = static_cast<float>(o.focal_px);
+  o.estimate_extrinsic = config.estimate_extrinsic;
+  o.max_iterations_round2 = config.max_num_iterations;
+  o.round2_time_s = config.max_solver_time_s;
+  o.preintegration.noise = ImuNoise::from_calibration(config.rig.imu);
   return o;
 }
 
@@ -31,11 +37,13 @@ ReplayPipeline::ReplayPipeline(const AppConfig& config, const ReplayPipelineOpti
       options_(options),
       times_(new StageTimes()),
       frontend_(frontend_options_from(config), config.rig),
-      keyframes_(keyframe_options_from(config)),
+      estimator_(options.frontend_only ? nullptr : new Estimator(estimator_options_from(config), config.rig)),
       features_(new FrameFeatures()),
       q_b_c0_(config.rig.cam[0].T_b_c.rotation()) {
   // Reserved here so that recording a frame never allocates; beyond it frames are counted only.
-  for (auto* v : {&series_.t_s, &series_.frontend_ms, &series_.total_ms}) v->reserve(options.report_frames);
+  for (auto* v : {&series_.t_s, &series_.frontend_ms, &series_.total_ms, &series_.backend_ms, &series_.est_t_s})
+    v->reserve(options.report_frames);
+  series_.est_p_w_m.reserve(options.report_frames);
   for (auto* v : {&series_.n_3d, &series_.n_2d_left, &series_.n_2d_right}) v->reserve(options.report_frames);
 }
 
@@ -67,6 +75,7 @@ void ReplayPipeline::on_imu(const ImuSample& sample) {
     }
     last_imu_t_ns_ = sample.t_ns;
     ++summary_.imu_samples;
+    if (estimator_ != nullptr) estimator_->add_imu(clipped);
   }
   summary_.processing_s +=
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -78,11 +87,13 @@ void ReplayPipeline::on_stereo(const StereoFrame& frame) {
   AllocScope allocs;
   const auto frame_start = std::chrono::steady_clock::now();
   double frontend_ms = 0.0;
+  double backend_ms = 0.0;
   {
     ScopedStageTimer total(times_, Stage::kTotal);
     const auto start = std::chrono::steady_clock::now();
     note_time(frame.t_ns);
     ++summary_.frames;
+    bool frontend_ok = false;
     {
       ScopedStageTimer t(times_, Stage::kFrontend);
       // cam0 rotation between frames from the body rotation: R_c0prev_c0curr = R_c0_b R R_b_c0.
@@ -92,12 +103,37 @@ void ReplayPipeline::on_stereo(const StereoFrame& frame) {
       frontend_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
       q_bprev_bcurr_.setIdentity();
       have_imu_since_frame_ = false;
+      frontend_ok = st == Status::kOk;
       if (st == Status::kOk) {
         accumulate_features(*features_);
-        // No estimator yet: no 2D feature has depth from it.
-        if (keyframes_.update(*features_, 0).is_keyframe) ++summary_.keyframes;
       } else {
         ++summary_.frontend_rejected_frames;
+      }
+    }
+    if (frontend_ok && estimator_ != nullptr) {
+      EstimatorOutput est;
+      EstimatorTiming timing;
+      estimator_->add_frame(*features_, &est, &timing);
+      times_->record(Stage::kPreintegrate, timing.preintegrate_ms);
+      if (est.mode != EstimatorMode::kImuOnly) {
+        times_->record(Stage::kSolveRound1, timing.solve_round1_ms);
+        times_->record(Stage::kSolveRound2, timing.solve_round2_ms);
+      }
+      if (est.keyframe) ++summary_.keyframes;
+      if (timing.marginalize_ms > 0.0f) times_->record(Stage::kMarginalize, timing.marginalize_ms);
+      times_->record(Stage::kBackend, timing.backend_ms);
+      backend_ms = timing.backend_ms;
+      if (est.valid) {
+        if (trajectory_ != nullptr) {
+          std::fprintf(trajectory_, "%.9f %.6f %.6f %.6f %.9f %.9f %.9f %.9f\n", static_cast<double>(est.t_ns) * 1e-9,
+                       est.p_w_b.x(), est.p_w_b.y(), est.p_w_b.z(), est.q_w_b.x(), est.q_w_b.y(), est.q_w_b.z(),
+                       est.q_w_b.w());
+        }
+        ++poses_written_;
+        if (series_.est_t_s.size() < series_.est_t_s.capacity()) {
+          series_.est_t_s.push_back(static_cast<double>(frame.t_ns - first_t_ns_) * 1e-9);
+          series_.est_p_w_m.push_back(est.p_w_b);
+        }
       }
     }
     summary_.processing_s +=
@@ -107,6 +143,7 @@ void ReplayPipeline::on_stereo(const StereoFrame& frame) {
     const bool ok = frontend_rejected_before_ == summary_.frontend_rejected_frames;
     series_.t_s.push_back(static_cast<double>(frame.t_ns - first_t_ns_) * 1e-9);
     series_.frontend_ms.push_back(frontend_ms);
+    series_.backend_ms.push_back(backend_ms);
     series_.total_ms.push_back(
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - frame_start).count());
     series_.n_3d.push_back(ok ? features_->n_3d : 0);
@@ -175,6 +212,7 @@ void ReplayPipeline::write_stats(JsonWriter& w) const {
       .value("keyframes", s.keyframes)
       .end_object();
   w.begin_object("imu").value("saturated_samples", s.saturated_samples).end_object();
+  if (estimator_ != nullptr) write_estimator_stats(w);
   w.begin_object("memory")
       .value("heap_allocs_steady_state", summary_.heap_allocs_steady_state)
       .value("static_bytes", static_cast<std::uint64_t>(static_bytes_))
@@ -183,13 +221,71 @@ void ReplayPipeline::write_stats(JsonWriter& w) const {
       .begin_object("frame_features")
       .value("capacity", static_cast<std::uint64_t>(decltype(FrameFeatures::features)::capacity()))
       .value("peak", static_cast<std::uint64_t>(peak_features_))
-      .end_object()
-      .end_object()
       .end_object();
+  if (estimator_ != nullptr) {
+    const EstimatorStats& e = estimator_->stats();
+    w.begin_object("landmarks")
+        .value("capacity", static_cast<std::uint64_t>(capacity::kMaxLandmarks))
+        .value("peak", static_cast<std::uint64_t>(e.peak_landmarks))
+        .end_object();
+    w.begin_object("visual_residuals")
+        .value("capacity", static_cast<std::uint64_t>(capacity::kMaxVisualResiduals))
+        .value("peak", static_cast<std::uint64_t>(e.peak_residuals))
+        .end_object();
+  }
+  w.end_object().end_object();
   w.begin_object("drops")
       .value("imu_out_of_order", out_of_order_imu_)
       .value("frontend_rejected_frames", s.frontend_rejected_frames)
-      .value("report_series", series_dropped_)
+      .value("report_series", series_dropped_);
+  if (estimator_ != nullptr) {
+    const EstimatorStats& e = estimator_->stats();
+    w.value("landmarks", e.drops_landmarks)
+        .value("visual_residuals", e.drops_residuals)
+        .value("imu_interval", e.drops_imu)
+        .value("mode_changes", e.mode_changes_dropped);
+  }
+  w.end_object();
+}
+
+void ReplayPipeline::write_estimator_stats(JsonWriter& w) const {
+  const EstimatorStats& e = estimator_->stats();
+  const double t0_ns = static_cast<double>(e.first_frame_t_ns);
+  w.begin_object("init")
+      .value("success", e.initialized)
+      .value("time_s", e.initialized ? (static_cast<double>(e.init_t_ns) - t0_ns) * 1e-9 : -1.0, 4)
+      .value("case", e.initialized ? e.init_case : "none")
+      .end_object();
+  w.begin_array("modes");
+  for (const ModeChange& c : e.mode_changes) {
+    w.begin_object()
+        .value("t_s", (static_cast<double>(c.t_ns) - t0_ns) * 1e-9, 4)
+        .value("from", to_string(c.from))
+        .value("to", to_string(c.to))
+        .value("reason", c.reason)
+        .end_object();
+  }
+  w.end_array();
+  w.begin_object("estimator")
+      .value("mode", to_string(estimator_->mode()))
+      .value("frames_imu_only", e.frames_in_mode[0])
+      .value("frames_vo", e.frames_in_mode[1])
+      .value("frames_vio", e.frames_in_mode[2])
+      .value("poses_written", poses_written_)
+      .value("solves", e.solves)
+      .value("mean_landmarks_in_solve", e.frames_solved > 0 ? e.sum_landmarks_in_solve / static_cast<double>(e.frames_solved) : 0.0, 4)
+      .value("stage_kept_2d_left", e.stage_kept_2d_left)
+      .value("stage_added_2d_right", e.stage_added_2d_right)
+      .value("outlier_landmarks", e.outlier_landmarks)
+      .value("marginalized_old", e.marginalized_old)
+      .value("marginalized_second_new", e.marginalized_second_new)
+      .value("marginalization_failures", e.marginalization_failures)
+      .value("visual_init_failures", e.visual_init_failures)
+      .value("align_attempts", e.align_attempts)
+      .value("align_failures", e.align_failures)
+      .value("align_disagreements", e.align_disagreements)
+      .value("still_frames", e.still_frames)
+      .value("resets", e.resets)
       .end_object();
 }
 

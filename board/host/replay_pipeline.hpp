@@ -4,6 +4,8 @@
 // pushes in time order.
 
 #include <cstdint>
+#include <cstdio>
+#include <memory>
 #include <ostream>
 #include <vector>
 
@@ -11,7 +13,7 @@
 #include "core/common/measurement_sink.hpp"
 #include "core/frontend/frame_features.hpp"
 #include "core/frontend/frontend.hpp"
-#include "core/frontend/keyframe_selector.hpp"
+#include "core/estimator/estimator.hpp"
 #include "core/imu/saturation.hpp"
 #include "profiling/json_writer.hpp"
 #include "profiling/stage_timer.hpp"
@@ -51,7 +53,12 @@ class ReplayPipeline final : public MeasurementSink {
 
   std::uint64_t frames() const { return summary_.frames; }
   void set_static_bytes(std::size_t bytes) { static_bytes_ = bytes; }
-  bool has_estimator() const { return false; }
+  bool has_estimator() const { return estimator_ != nullptr; }
+  const Estimator* estimator() const { return estimator_.get(); }
+  // Where one body pose per frame goes (TUM: t_s x y z qx qy qz qw), written as frames are
+  // processed; nullptr: nowhere. The caller owns the file.
+  void set_trajectory_output(std::FILE* file) { trajectory_ = file; }
+  std::uint64_t poses_written() const { return poses_written_; }
   const StageTimes& stage_times() const { return *times_; }
   ReplaySummary summary() const;
 
@@ -59,6 +66,9 @@ class ReplayPipeline final : public MeasurementSink {
   struct FrameSeries {
     std::vector<double> t_s, frontend_ms, total_ms;
     std::vector<int> n_3d, n_2d_left, n_2d_right;
+    std::vector<double> backend_ms;
+    std::vector<double> est_t_s;                 // frames with a pose
+    std::vector<Eigen::Vector3d> est_p_w_m;      // their positions, m (not aligned)
   };
   const FrameSeries& series() const { return series_; }
 
@@ -69,6 +79,7 @@ class ReplayPipeline final : public MeasurementSink {
 
  private:
   void note_time(std::int64_t t_ns);
+  void write_estimator_stats(JsonWriter& w) const;
   void accumulate_features(const FrameFeatures& f);
 
   AppConfig config_;
@@ -82,7 +93,9 @@ class ReplayPipeline final : public MeasurementSink {
 
   SaturationElement saturation_;
   Frontend frontend_;
-  KeyframeSelector keyframes_;
+  std::unique_ptr<Estimator> estimator_;  // null with frontend_only
+  std::FILE* trajectory_ = nullptr;
+  std::uint64_t poses_written_ = 0;
   FrameFeatures* features_;  // one frame's features, allocated once
   // Gyro-integrated rotation of the body since the previous frame: the front end's KLT hint.
   Eigen::Quaterniond q_bprev_bcurr_ = Eigen::Quaterniond::Identity();

@@ -48,3 +48,9 @@ inline constexpr std::size_t kThreadBridgeFrameSlots = 4;  // live app: stereo f
 namespace ums::capacity {
 inline constexpr std::size_t kMaxCornerCandidates = 4096;  // NMS maxima per detect() call
 }  // namespace ums::capacity
+
+// Estimator (issue 7)
+namespace ums::capacity {
+inline constexpr std::size_t kMaxVisualResiduals = 6000;   // bearing residuals in one window solve
+inline constexpr std::size_t kStandstillImuSamples = 1024; // IMU samples kept for the standstill test (0.5 s at 2 kHz)
+}  // namespace ums::capacity

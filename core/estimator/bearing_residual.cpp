@@ -1,0 +1,126 @@
+#include "core/estimator/bearing_residual.hpp"
+
+#include <cmath>
+
+#include <Eigen/Geometry>
+
+#include "core/math/so3.hpp"
+
+namespace ums {
+
+void BearingResidual::set(Kind kind, bool same_camera, const Eigen::Vector3d& b_host,
+                          const Eigen::Vector3d& b_target, double weight) {
+  kind_ = kind;
+  same_camera_ = kind == Kind::kSameFrame ? false : same_camera;
+  b_host_ = b_host.normalized();
+  b_target_ = b_target.normalized();
+  weight_ = weight;
+  // Any orthonormal pair normal to b_target: start from the axis least aligned with it.
+  Eigen::Vector3d a = Eigen::Vector3d::UnitX();
+  if (std::abs(b_target_.x()) > 0.6) a = Eigen::Vector3d::UnitY();
+  const Eigen::Vector3d t1 = (a - b_target_ * b_target_.dot(a)).normalized();
+  tangent_.col(0) = t1;
+  tangent_.col(1) = b_target_.cross(t1);
+}
+
+int BearingResidual::num_blocks() const {
+  if (kind_ == Kind::kSameFrame) return 3;
+  return same_camera_ ? 4 : 5;
+}
+
+namespace {
+
+struct Pose {
+  Eigen::Vector3d p;
+  Eigen::Matrix3d R;
+};
+
+Pose read_pose(const double* x) {
+  const Eigen::Map<const Eigen::Quaterniond> q(x + 3);
+  return {Eigen::Vector3d(x[0], x[1], x[2]), q.normalized().toRotationMatrix()};
+}
+
+}  // namespace
+
+bool BearingResidual::error_rad(const double* const* parameters, double* error) const {
+  double r[2];
+  if (!evaluate(parameters, r, nullptr) || !(weight_ > 0.0)) return false;
+  *error = std::sqrt(r[0] * r[0] + r[1] * r[1]) / weight_;
+  return true;
+}
+
+bool BearingResidual::evaluate(const double* const* parameters, double* residuals,
+                               const solver::JacobianView* jacobians) const {
+  const bool two_frames = kind_ == Kind::kTwoFrames;
+  const int k_ext_h = two_frames ? 2 : 0;
+  const int k_ext_t = two_frames ? (same_camera_ ? 2 : 3) : 1;
+  const int k_rho = num_blocks() - 1;
+
+  const double rho = parameters[k_rho][0];
+  if (!(rho > 1e-6) || !std::isfinite(rho)) return false;
+  const Pose ext_h = read_pose(parameters[k_ext_h]);
+  const Pose ext_t = read_pose(parameters[k_ext_t]);
+
+  const Eigen::Vector3d P_ch = b_host_ / rho;
+  const Eigen::Vector3d P_bh = ext_h.R * P_ch + ext_h.p;
+  Eigen::Vector3d P_bt;
+  Pose pose_h{}, pose_t{};
+  if (two_frames) {
+    pose_h = read_pose(parameters[0]);
+    pose_t = read_pose(parameters[1]);
+    const Eigen::Vector3d P_w = pose_h.R * P_bh + pose_h.p;
+    P_bt = pose_t.R.transpose() * (P_w - pose_t.p);
+  } else {
+    P_bt = P_bh;
+  }
+  const Eigen::Vector3d P_ct = ext_t.R.transpose() * (P_bt - ext_t.p);
+  const double n = P_ct.norm();
+  if (!(n > 1e-9) || P_ct.dot(b_target_) <= 0.0) return false;
+  const Eigen::Vector3d u = P_ct / n;
+  Eigen::Map<Eigen::Vector2d> r(residuals);
+  r = weight_ * (tangent_.transpose() * (u - b_target_));
+  if (!r.allFinite()) return false;
+  if (jacobians == nullptr) return true;
+
+  // d r / d P_ct (2x3): projection onto the unit sphere, then onto the tangent plane.
+  const Eigen::Matrix<double, 2, 3> D =
+      (weight_ / n) * tangent_.transpose() * (Eigen::Matrix3d::Identity() - u * u.transpose());
+  const Eigen::Matrix3d R_ct_bt = ext_t.R.transpose();
+  // M maps a vector of host body coordinates into target camera coordinates.
+  const Eigen::Matrix3d M = two_frames ? Eigen::Matrix3d(R_ct_bt * pose_t.R.transpose() * pose_h.R) : R_ct_bt;
+
+  if (two_frames) {
+    if (jacobians[0].wanted()) {
+      Eigen::Matrix<double, 3, 6> d;
+      d.leftCols<3>() = R_ct_bt * pose_t.R.transpose();
+      d.rightCols<3>() = -M * so3::hat(P_bh);
+      solver::jacobian_map<2, 6>(jacobians[0]) = D * d;
+    }
+    if (jacobians[1].wanted()) {
+      Eigen::Matrix<double, 3, 6> d;
+      d.leftCols<3>() = -R_ct_bt * pose_t.R.transpose();
+      d.rightCols<3>() = R_ct_bt * so3::hat(P_bt);
+      solver::jacobian_map<2, 6>(jacobians[1]) = D * d;
+    }
+  }
+  // Extrinsics: host side moves P_bh, target side moves the target camera.
+  Eigen::Matrix<double, 3, 6> d_h;
+  d_h.leftCols<3>() = M;
+  d_h.rightCols<3>() = -M * ext_h.R * so3::hat(P_ch);
+  Eigen::Matrix<double, 3, 6> d_t;
+  d_t.leftCols<3>() = -R_ct_bt;
+  d_t.rightCols<3>() = so3::hat(P_ct);
+  if (k_ext_h == k_ext_t) {
+    if (jacobians[k_ext_h].wanted()) solver::jacobian_map<2, 6>(jacobians[k_ext_h]) = D * (d_h + d_t);
+  } else {
+    if (jacobians[k_ext_h].wanted()) solver::jacobian_map<2, 6>(jacobians[k_ext_h]) = D * d_h;
+    if (jacobians[k_ext_t].wanted()) solver::jacobian_map<2, 6>(jacobians[k_ext_t]) = D * d_t;
+  }
+  if (jacobians[k_rho].wanted()) {
+    const Eigen::Vector3d d_rho = M * ext_h.R * (-b_host_ / (rho * rho));
+    solver::jacobian_map<2, 1>(jacobians[k_rho]) = D * d_rho;
+  }
+  return true;
+}
+
+}  // namespace ums

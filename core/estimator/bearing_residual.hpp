@@ -1,0 +1,51 @@
+#pragma once
+// The visual residual of paper eq. (3)/(5): the unit bearing at which a landmark should be seen
+// minus the measured unit bearing, expressed in the 2-D tangent plane of the measurement (two
+// rows, radians), whitened by focal_px / sigma_px and weighted by the paper's beta (beta1 for
+// left-camera observations, beta2 for right-camera ones). Working on bearings instead of the
+// z = 1 plane keeps the residual valid for wide-angle lenses and points near the image border.
+//
+// The landmark is an inverse distance rho (1/m) along the measured unit bearing b_h of its host
+// observation (host frame h, host camera):
+//   P_ch = b_h / rho,  P_bh = T_b_ch P_ch,  P_w = T_w_bh P_bh,  P_bt = T_w_bt^-1 P_w,
+//   P_ct = T_b_ct^-1 P_bt,  r = w * B^T (P_ct / |P_ct| - b_t),  B = basis of the plane normal to b_t.
+// Parameter blocks, in this order:
+//   kTwoFrames, same camera:       pose_h, pose_t, T_b_c (host = target camera), rho
+//   kTwoFrames, different cameras: pose_h, pose_t, T_b_ch, T_b_ct, rho
+//   kSameFrame (stereo pair):      T_b_ch, T_b_ct, rho  (the body pose cancels)
+// Poses and extrinsics are 7-double pose blocks (docs/conventions.md); Jacobians are analytic.
+
+#include <Eigen/Core>
+
+#include "solver/residual.hpp"
+
+namespace ums {
+
+class BearingResidual final : public solver::ResidualFunction {
+ public:
+  enum class Kind : unsigned char { kTwoFrames, kSameFrame };
+
+  BearingResidual() = default;
+  // b_host, b_target: measured unit bearings in the host and target cameras. weight: whitening
+  // (focal_px / sigma_px times beta), 1/rad.
+  void set(Kind kind, bool same_camera, const Eigen::Vector3d& b_host, const Eigen::Vector3d& b_target,
+           double weight);
+
+  int num_residuals() const override { return 2; }
+  int num_blocks() const;
+  bool evaluate(const double* const* parameters, double* residuals,
+                const solver::JacobianView* jacobians) const override;
+
+  // Angle-like error (rad, unwhitened) at the given parameters; false behind the camera.
+  bool error_rad(const double* const* parameters, double* error) const;
+
+ private:
+  Kind kind_ = Kind::kTwoFrames;
+  bool same_camera_ = true;
+  Eigen::Vector3d b_host_ = Eigen::Vector3d::UnitZ();
+  Eigen::Vector3d b_target_ = Eigen::Vector3d::UnitZ();
+  Eigen::Matrix<double, 3, 2> tangent_ = Eigen::Matrix<double, 3, 2>::Zero();
+  double weight_ = 1.0;
+};
+
+}  // namespace ums

@@ -1,0 +1,44 @@
+#include "core/estimator/estimator_options.hpp"
+
+#include <stdexcept>
+#include <string>
+
+#include "core/common/capacity.hpp"
+
+namespace ums {
+namespace {
+
+void require(bool ok, const char* field, double value) {
+  if (!ok) throw std::invalid_argument(std::string("EstimatorOptions.") + field + " = " + std::to_string(value) + " is out of range");
+}
+
+}  // namespace
+
+void EstimatorOptions::validate() const {
+  require(sigma_px > 0.0, "sigma_px", sigma_px);
+  require(focal_px > 0.0, "focal_px", focal_px);
+  require(beta_left > 0.0, "beta_left", beta_left);
+  require(beta_right > 0.0, "beta_right", beta_right);
+  require(huber_px > 0.0, "huber_px", huber_px);
+  require(gravity_m_s2 > 5.0 && gravity_m_s2 < 15.0, "gravity_m_s2", gravity_m_s2);
+  require(window_size >= 4 && window_size <= static_cast<int>(capacity::kWindowSize), "window_size", window_size);
+  require(max_landmarks_in_solve >= 10 && max_landmarks_in_solve <= static_cast<int>(capacity::kMaxLandmarks),
+          "max_landmarks_in_solve", max_landmarks_in_solve);
+  require(min_depth_m > 0.0 && max_depth_m > min_depth_m, "max_depth_m", max_depth_m);
+  require(min_triangulation_angle_deg > 0.0, "min_triangulation_angle_deg", min_triangulation_angle_deg);
+  require(outlier_px > 0.0, "outlier_px", outlier_px);
+  require(max_iterations_stage >= 1, "max_iterations_stage", max_iterations_stage);
+  require(max_iterations_round2 >= 0, "max_iterations_round2", max_iterations_round2);
+  require(round2_time_s >= 0.0, "round2_time_s", round2_time_s);
+  require(min_align_frames >= 3 && min_align_frames <= window_size, "min_align_frames", min_align_frames);
+  require(align_perturb_deg > 0.0, "align_perturb_deg", align_perturb_deg);
+  require(align_agree_deg > 0.0, "align_agree_deg", align_agree_deg);
+  require(standstill_window_s >= standstill.min_window_s, "standstill_window_s", standstill_window_s);
+  require(still_sigma_m > 0.0 && still_sigma_rad > 0.0 && still_sigma_v > 0.0, "still_sigma_m", still_sigma_m);
+  require(imu_noise_inflation >= 1.0, "imu_noise_inflation", imu_noise_inflation);
+  preintegration.validate();
+  keyframe.validate();
+  standstill.validate();
+}
+
+}  // namespace ums

@@ -1,0 +1,70 @@
+#pragma once
+// Options of the estimator (paper Sec. III-B and III-C). Every field has a unit and a default
+// that works on EuRoC-like rigs at 20 Hz and on the D455; validate() checks ranges and the
+// compile-time capacities.
+
+#include "core/frontend/keyframe_selector.hpp"
+#include "core/imu/imu_noise.hpp"
+#include "core/imu/preintegration.hpp"
+#include "core/imu/standstill.hpp"
+
+namespace ums {
+
+struct EstimatorOptions {
+  // --- measurement model ---
+  double sigma_px = 1.5;             // px, feature noise (VINS-Fusion: focal / 1.5)
+  double focal_px = 460.0;           // px, turns sigma_px into radians on the bearing tangent plane
+  double beta_left = 1.0;            // 1, paper eq. (5) beta1: weight of left-camera observations
+  double beta_right = 1.0;           // 1, paper eq. (5) beta2: weight of right-camera observations
+  double huber_px = 1.5;             // px, Huber threshold on the visual residuals
+  double gravity_m_s2 = 9.81;        // m/s^2
+  bool estimate_extrinsic = false;   // optimize T_b_c0 / T_b_c1 in the window
+  PreintegrationOptions preintegration;  // noise: set from the rig calibration by the caller
+  double imu_noise_inflation = 2.0;   // 1, multiplies the calibrated noise densities: unmodelled
+                                      // vibration and timing (VINS-Fusion inflates EuRoC ~10x)
+  KeyframeOptions keyframe;
+
+  // --- window and features ---
+  int window_size = 11;                   // frames incl. the newest (<= capacity::kWindowSize)
+  int max_landmarks_in_solve = 150;       // landmarks per solve, best first (paper: best 100-300)
+  double min_depth_m = 0.1;               // m, landmarks closer are rejected
+  double max_depth_m = 60.0;              // m, landmarks farther are not used (no parallax)
+  double min_triangulation_angle_deg = 0.4;  // deg, ray angle needed to triangulate a 2D feature
+  double outlier_px = 3.0;                // px, observation error that marks a landmark as an outlier
+
+  // --- two-stage solve (paper Sec. III-C) ---
+  int min_3d_landmarks = 25;              // fewer 3D landmarks in the window: add 2D-right at once
+  double stage_agree_m = 0.05;            // m, stereo vs mono-stereo newest pose agreement
+  double stage_agree_deg = 1.0;           // deg
+  int max_iterations_stage = 4;           // LM iterations of each first-round solve
+  int max_iterations_round2 = 4;          // LM iterations of the second round
+  double round2_time_s = 0.010;           // s, time budget of the second round (paper: bounded)
+  bool two_stage = true;                  // false: one solve with every feature class
+
+  // --- initialization (paper Sec. III-B) ---
+  int min_init_3d = 20;                   // 3D features with depth needed for visual init / PnP
+  int min_align_frames = 8;               // window frames needed for the visual-IMU alignment
+  double min_align_span_s = 1.0;          // s, time spanned by them
+  double max_gravity_error_m_s2 = 0.6;    // m/s^2, | |g_LS| - g | accepted from the least squares
+  double align_perturb_deg = 3.0;         // deg, tilt of the second loosely coupled BA's start
+  double align_agree_deg = 1.0;           // deg, the two loosely coupled BAs must agree on gravity
+  double align_agree_ba_m_s2 = 0.1;       // m/s^2, ... and on the accelerometer bias
+  int align_retry_frames = 5;             // frames between alignment attempts in VO
+  double init_bias_sigma_ba = 0.2;        // m/s^2, prior on b_a at initialization
+  double init_bias_sigma_bg = 0.02;       // rad/s, prior on b_g at initialization
+
+  // --- standstill (zero-velocity handling) ---
+  StandstillOptions standstill;
+  double standstill_window_s = 0.5;       // s of IMU examined before each frame
+  double still_sigma_m = 0.002;           // m, zero-motion constraint between still frames
+  double still_sigma_rad = 0.001;         // rad
+  double still_sigma_v = 0.01;            // m/s, zero-velocity constraint
+
+  // --- failure handling ---
+  int min_tracked_landmarks = 10;          // fewer observed landmarks in a new frame: visual loss
+  double max_speed_m_s = 20.0;             // m/s, beyond it the window is reset (divergence)
+
+  void validate() const;  // throws std::invalid_argument naming the field and value
+};
+
+}  // namespace ums

@@ -1,0 +1,50 @@
+#pragma once
+// A feature of the sliding window: its observations in window frames (referenced by frame slot,
+// which does not move when the window slides) and its inverse distance along the unit bearing of
+// its host observation (the first one in the window; left camera when the feature was seen
+// there, else right). Classes of the paper (Sec. III-A.1): a landmark seen in both cameras of
+// any window frame is a 3D landmark; otherwise it is 2D-left or 2D-right by its camera.
+
+#include <cstdint>
+
+#include <Eigen/Core>
+
+#include "core/common/capacity.hpp"
+
+namespace ums {
+
+struct LandmarkObservation {
+  std::uint8_t slot = 0;        // window frame slot
+  bool has_left = false;
+  bool has_right = false;
+  Eigen::Vector3f bearing_left = Eigen::Vector3f::UnitZ();   // unit, cam0
+  Eigen::Vector3f bearing_right = Eigen::Vector3f::UnitZ();  // unit, cam1
+};
+
+enum class LandmarkGroup : std::uint8_t { k3D = 0, k2DLeft = 1, k2DRight = 2 };
+
+struct Landmark {
+  std::uint32_t id = 0;
+  std::uint8_t host_slot = 0;
+  std::uint8_t host_cam = 0;     // 0 left, 1 right
+  bool stereo = false;           // seen in both cameras in some window frame (3D)
+  bool has_depth = false;        // inv_depth is initialized
+  bool outlier = false;          // marked after a solve; removed at the end of the frame
+  std::uint32_t track_length = 0;  // frames, from the front end
+  double inv_depth = 0.0;        // 1/m along b_host
+  Eigen::Vector3d b_host = Eigen::Vector3d::UnitZ();
+  std::uint8_t n_obs = 0;
+  LandmarkObservation obs[capacity::kMaxObservationsPerLandmark];
+
+  LandmarkGroup group() const {
+    if (stereo) return LandmarkGroup::k3D;
+    return host_cam == 0 ? LandmarkGroup::k2DLeft : LandmarkGroup::k2DRight;
+  }
+  int find_obs(int slot) const {
+    for (int k = 0; k < n_obs; ++k)
+      if (obs[k].slot == slot) return k;
+    return -1;
+  }
+};
+
+}  // namespace ums

@@ -1,0 +1,51 @@
+#include "core/estimator/state_residuals.hpp"
+
+#include <Eigen/Geometry>
+
+#include "core/math/so3.hpp"
+
+namespace ums {
+
+void SpeedBiasPrior::set(const Vector9& target, const Vector9& sigma) {
+  target_ = target;
+  for (int i = 0; i < 9; ++i) weight_[i] = sigma[i] > 0.0 ? 1.0 / sigma[i] : 0.0;
+}
+
+bool SpeedBiasPrior::evaluate(const double* const* x, double* r, const solver::JacobianView* jac) const {
+  const Eigen::Map<const Vector9> sb(x[0]);
+  Eigen::Map<Vector9> res(r);
+  res = weight_.cwiseProduct(sb - target_);
+  if (jac != nullptr && jac[0].wanted()) {
+    auto J = solver::jacobian_map<9, 9>(jac[0]);
+    J.setZero();
+    for (int i = 0; i < 9; ++i) J(i, i) = weight_[i];
+  }
+  return res.allFinite();
+}
+
+bool StillResidual::evaluate(const double* const* x, double* r, const solver::JacobianView* jac) const {
+  const Eigen::Map<const Eigen::Vector3d> p_i(x[0]), p_j(x[1]);
+  const Eigen::Map<const Eigen::Quaterniond> q_i(x[0] + 3), q_j(x[1] + 3);
+  Eigen::Map<Eigen::Matrix<double, 6, 1>> res(r);
+  const Eigen::Vector3d e = so3::log(Eigen::Quaterniond(q_i.conjugate() * q_j));
+  res.head<3>() = w_p_ * (p_j - p_i);
+  res.tail<3>() = w_r_ * e;
+  if (jac == nullptr) return res.allFinite();
+  const Eigen::Matrix3d Jr_inv = so3::right_jacobian_inverse(e);
+  if (jac[0].wanted()) {
+    auto J = solver::jacobian_map<6, 6>(jac[0]);
+    J.setZero();
+    J.topLeftCorner<3, 3>() = -w_p_ * Eigen::Matrix3d::Identity();
+    // d Log(Exp(-d) R_ij) / d d = -Jl^-1(e) = -Jr^-1(e) R_ij^T.
+    J.bottomRightCorner<3, 3>() = -w_r_ * Jr_inv * so3::exp(e).transpose();
+  }
+  if (jac[1].wanted()) {
+    auto J = solver::jacobian_map<6, 6>(jac[1]);
+    J.setZero();
+    J.topLeftCorner<3, 3>() = w_p_ * Eigen::Matrix3d::Identity();
+    J.bottomRightCorner<3, 3>() = w_r_ * Jr_inv;
+  }
+  return res.allFinite();
+}
+
+}  // namespace ums
