@@ -91,10 +91,17 @@ elif init.get("success"):
 else:
     init_text = "failed"
 seen = []
-for change in stats.get("modes", []) or []:
-    m = change.get("mode") if isinstance(change, dict) else change
+def see(m):
     if m is not None and (not seen or seen[-1] != str(m)):
         seen.append(str(m))
+# modes: a list of changes {t_s, from, to, reason} (or {t, mode}): the modes in the order entered.
+for change in stats.get("modes", []) or []:
+    if isinstance(change, dict):
+        if not seen:
+            see(change.get("from"))
+        see(change.get("to", change.get("mode")))
+    else:
+        see(change)
 modes = " > ".join(seen) if seen else "-"
 print("| %s | %s | %s | %s | %s | %s |" % (flight, scenario, ate, share, init_text, modes))
 PY
