@@ -3,6 +3,9 @@
 //   steady: frames in order (tracking + top-up detection + stereo of every feature);
 //   cold:   reset() before every frame (full detection and stereo search every frame: the upper
 //           bound a scene cut or fast motion costs).
+// Per regime also the sub-stage times the front end measures itself (FrontendFrameStats::pyramid_ms,
+// detect_ms, track_ms, stereo_ms, ransac_ms) and an output hash over all steady features (equal
+// hashes = bit-identical features, e.g. before and after a speed change).
 // Usage: umsvins_bench_frontend [dataset_dir] [repeats]. Last line: one JSON object.
 
 #include <algorithm>
@@ -84,7 +87,24 @@ struct Result {
   double mean_3d = 0, mean_2d = 0;
   unsigned long long allocs_after_first = 0;
   std::uint64_t output_hash = 0;  // FNV-1a over every feature of every steady frame (ids, classes, pixels)
+  // Sub-stages (FrontendFrameStats::*_ms, in kStageNames order): steady median and mean, cold median.
+  double stage_median_ms[5] = {}, stage_mean_ms[5] = {}, stage_cold_median_ms[5] = {};
 };
+
+constexpr const char* kStageNames[5] = {"pyramid", "detect", "track", "stereo", "ransac"};
+
+void stage_times(const ums::FrontendFrameStats& st, double* out) {
+  out[0] = static_cast<double>(st.pyramid_ms);
+  out[1] = static_cast<double>(st.detect_ms);
+  out[2] = static_cast<double>(st.track_ms);
+  out[3] = static_cast<double>(st.stereo_ms);
+  out[4] = static_cast<double>(st.ransac_ms);
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
 
 // FNV-1a over the bytes of a value: the fingerprint that shows a change left the features bit-identical.
 template <typename T>
@@ -111,6 +131,7 @@ Result run(const Sequence& s, const ums::RigCalibration& rig, int repeats) {
   ums::Frontend fe(opt, rig);
   static ums::FrameFeatures out;
   std::vector<double> ms, cold;
+  std::vector<double> stage[5], stage_cold[5];
   Result r;
   r.output_hash = 1469598103934665603ull;
   long n3 = 0, n2 = 0, frames = 0;
@@ -132,6 +153,9 @@ Result run(const Sequence& s, const ums::RigCalibration& rig, int repeats) {
       if (i > 0) r.allocs_after_first += scope.allocations();
       ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
       hash_features(&r.output_hash, out);
+      double t[5];
+      stage_times(out.stats, t);
+      for (int k = 0; k < 5; ++k) stage[k].push_back(t[k]);
       n3 += out.n_3d;
       n2 += out.n_2d_left + out.n_2d_right;
       ++frames;
@@ -147,6 +171,15 @@ Result run(const Sequence& s, const ums::RigCalibration& rig, int repeats) {
     fe.process(f, nullptr, &out);
     const auto t1 = std::chrono::steady_clock::now();
     cold.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+    double t[5];
+    stage_times(out.stats, t);
+    for (int k = 0; k < 5; ++k) stage_cold[k].push_back(t[k]);
+  }
+  for (int k = 0; k < 5; ++k) {
+    r.stage_median_ms[k] = median(stage[k]);
+    for (double v : stage[k]) r.stage_mean_ms[k] += v;
+    r.stage_mean_ms[k] /= static_cast<double>(stage[k].size());
+    r.stage_cold_median_ms[k] = median(stage_cold[k]);
   }
   std::vector<double> sorted = ms;
   std::sort(sorted.begin(), sorted.end());
@@ -169,14 +202,29 @@ void print(const char* name, const Result& r) {
               "mean 3D %.1f, 2D %.1f | allocations after frame 1: %llu | output hash %016llx\n",
               name, r.median_ms, r.p99_ms, r.max_ms, r.mean_ms, r.cpu_mean_ms, r.cold_median_ms, r.cold_max_ms, r.mean_3d, r.mean_2d,
               r.allocs_after_first, static_cast<unsigned long long>(r.output_hash));
+  double sum_mean = 0;
+  for (double v : r.stage_mean_ms) sum_mean += v;
+  std::printf("%s stages, steady median (mean, share of the summed means) | cold median, ms:", name);
+  for (int k = 0; k < 5; ++k) {
+    std::printf(" %s %.2f (%.2f, %.0f%%) | %.2f%s", kStageNames[k], r.stage_median_ms[k], r.stage_mean_ms[k],
+                100.0 * r.stage_mean_ms[k] / sum_mean, r.stage_cold_median_ms[k], k < 4 ? ";" : "\n");
+  }
 }
 
 void json(const char* key, const Result& r, bool last) {
   std::printf("\"%s\":{\"median_ms\":%.3f,\"p99_ms\":%.3f,\"max_ms\":%.3f,\"mean_ms\":%.3f,\"cpu_mean_ms\":%.3f,"
               "\"cold_median_ms\":%.3f,"
-              "\"cold_max_ms\":%.3f,\"mean_3d\":%.1f,\"mean_2d\":%.1f,\"allocs_after_first\":%llu}%s",
+              "\"cold_max_ms\":%.3f,\"mean_3d\":%.1f,\"mean_2d\":%.1f,\"allocs_after_first\":%llu,\"output_hash\":\"%016llx\",",
               key, r.median_ms, r.p99_ms, r.max_ms, r.mean_ms, r.cpu_mean_ms, r.cold_median_ms, r.cold_max_ms, r.mean_3d, r.mean_2d,
-              r.allocs_after_first, last ? "" : ",");
+              r.allocs_after_first, static_cast<unsigned long long>(r.output_hash));
+  const char* groups[3] = {"stages_median_ms", "stages_mean_ms", "stages_cold_median_ms"};
+  const double* values[3] = {r.stage_median_ms, r.stage_mean_ms, r.stage_cold_median_ms};
+  for (int g = 0; g < 3; ++g) {
+    std::printf("\"%s\":{", groups[g]);
+    for (int k = 0; k < 5; ++k) std::printf("\"%s\":%.3f%s", kStageNames[k], values[g][k], k < 4 ? "," : "}");
+    std::printf("%s", g < 2 ? "," : "");
+  }
+  std::printf("}%s", last ? "" : ",");
 }
 
 }  // namespace
