@@ -443,6 +443,9 @@ void Problem::accumulate_residual(int res_index, const double* r) {
   const Residual& rb = residuals_[res_index];
   const int rows = rb.rows;
   if (rows == 2 && rb.fast2) {
+    // marginalize() keeps exactly the touched blocks: the fast path must mark them too.
+    for (int a = 0; a < rb.num_blocks; ++a)
+      if (jac_wanted_[a]) touched_[rb.blocks[a]] = true;
     accumulate_two_row(rb, r);
     return;
   }
