@@ -230,6 +230,13 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
       .end_object();
   w.end_object();
   write_file(out_dir / "stats.json", w.str());
+  if (accuracy != nullptr) {
+    // Per-pose error over time (after the SE(3) alignment), for plots and regressions.
+    std::ostringstream csv;
+    csv << "# t_s (since the first ground-truth pose), ate_error_m\n";
+    for (std::size_t i = 0; i < accuracy->ate.t_s.size(); ++i) csv << accuracy->ate.t_s[i] << "," << accuracy->ate.error_m[i] << "\n";
+    write_file(out_dir / "ate_errors.csv", csv.str());
+  }
   write_report(dataset, reader, pipeline, summary, accuracy.get(), out_dir / "report.html", err);
 
   out << "replay: " << summary.frames << " stereo pairs, " << summary.imu_samples
