@@ -139,7 +139,7 @@ run_one() {  # flight scenario
 table="$work/results_table.md"
 {
   echo "Measured $(date -u +%Y-%m-%d) at commit $(git -C "$root" rev-parse --short HEAD 2>/dev/null || echo unknown)" \
-       "with \`scripts/results.sh$([[ $quick -eq 1 ]] && echo ' --quick')\`: simulated ${duration} s cuts," \
+       "with \`scripts/results.sh$([[ $quick -eq 1 ]] && echo ' --quick')$([[ -n "$duration_override" ]] && echo " --duration $duration_override")\`: simulated ${duration} s cuts," \
        "seed 1, ATE RMSE after SE(3) alignment."
   echo
   echo "| flight (simulated) | scenario | ATE RMSE [m] | frames with pose [%] | init time [s] | modes seen |"
