@@ -106,6 +106,12 @@ void ReplayPipeline::on_stereo(const StereoFrame& frame) {
       frontend_ok = st == Status::kOk;
       if (st == Status::kOk) {
         accumulate_features(*features_);
+        const FrontendFrameStats& fs = features_->stats;
+        times_->record(Stage::kPyramid, fs.pyramid_ms);
+        times_->record(Stage::kDetect, fs.detect_ms);
+        times_->record(Stage::kTrack, fs.track_ms);
+        times_->record(Stage::kStereo, fs.stereo_ms);
+        times_->record(Stage::kRansac, fs.ransac_ms);
       } else {
         ++summary_.frontend_rejected_frames;
       }
@@ -276,7 +282,9 @@ void ReplayPipeline::write_estimator_stats(JsonWriter& w) const {
       .value("mean_landmarks_in_solve", e.frames_solved > 0 ? e.sum_landmarks_in_solve / static_cast<double>(e.frames_solved) : 0.0, 4)
       .value("stage_kept_2d_left", e.stage_kept_2d_left)
       .value("stage_added_2d_right", e.stage_added_2d_right)
+      .value("stage_3d_sufficient", e.stage_3d_sufficient)
       .value("outlier_landmarks", e.outlier_landmarks)
+      .value("second_rounds", e.second_rounds)
       .value("marginalized_old", e.marginalized_old)
       .value("marginalized_second_new", e.marginalized_second_new)
       .value("marginalization_failures", e.marginalization_failures)
@@ -285,6 +293,7 @@ void ReplayPipeline::write_estimator_stats(JsonWriter& w) const {
       .value("align_failures", e.align_failures)
       .value("align_disagreements", e.align_disagreements)
       .value("still_frames", e.still_frames)
+      .value("still_rejected_by_vision", e.still_rejected_by_vision)
       .value("resets", e.resets)
       .end_object();
 }

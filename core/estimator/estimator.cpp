@@ -372,6 +372,34 @@ void Estimator::triangulate_all(int exclude_slot) {
   }
 }
 
+float Estimator::visual_flow_px(int prev_slot, int slot, const Eigen::Vector3d& bg) const {
+  // Mean image motion of the left features seen in both frames, with the rotation between them
+  // (gyro integrated with bias bg) taken out: translation only. -1 when fewer than 10 features are shared.
+  const FrameState& f = slots_[slot];
+  Eigen::Matrix3d R_prev_cur = Eigen::Matrix3d::Identity();
+  if (f.pre.num_samples() >= 2) {
+    const Eigen::Matrix3d R_b_c = T_b_c_iso_[0].linear();
+    Eigen::Vector3d alpha, beta;
+    Eigen::Quaterniond gamma;
+    f.pre.corrected(f.pre.linearization_ba(), bg, &alpha, &beta, &gamma);
+    R_prev_cur = R_b_c.transpose() * gamma.toRotationMatrix() * R_b_c;
+  }
+  double sum = 0.0;
+  int n = 0;
+  for (int k = 0; k < n_lm_index_; ++k) {
+    const Landmark& l = landmarks_[lm_index_[k]];
+    const int a = l.find_obs(prev_slot);
+    const int b = l.find_obs(slot);
+    if (a < 0 || b < 0 || !l.obs[a].has_left || !l.obs[b].has_left) continue;
+    const Eigen::Vector3d b_prev = l.obs[a].bearing_left.cast<double>();
+    const Eigen::Vector3d b_cur = l.obs[b].bearing_left.cast<double>();
+    sum += (R_prev_cur * b_cur - b_prev).norm();
+    ++n;
+  }
+  if (n < 10) return -1.0f;
+  return static_cast<float>(sum / n * options_.focal_px);
+}
+
 int Estimator::count_depth_observations(int slot, int* n_2d_with_depth) const {
   int n = 0, n2d = 0;
   for (int k = 0; k < n_lm_index_; ++k) {
@@ -523,14 +551,29 @@ int Estimator::build_problem(const BuildSpec& spec) {
   return n_selected_;
 }
 
-bool Estimator::solve(const BuildSpec& spec, int max_iterations, double max_time_s) {
+int Estimator::count_candidates(std::uint8_t groups) const {
+  int n = 0;
+  for (int k = 0; k < n_lm_index_; ++k) {
+    const Landmark& l = landmarks_[lm_index_[k]];
+    if (!l.has_depth || l.outlier) continue;
+    if ((groups & static_cast<std::uint8_t>(1u << static_cast<int>(l.group()))) == 0) continue;
+    int rays = 0;
+    for (int j = 0; j < l.n_obs; ++j) rays += static_cast<int>(l.obs[j].has_left) + static_cast<int>(l.obs[j].has_right);
+    n += rays >= 2 ? 1 : 0;
+  }
+  return n;
+}
+
+bool Estimator::solve(const BuildSpec& spec, int max_iterations, double max_time_s, bool* converged) {
   build_problem(spec);
   solver::SolverOptions opt;
   opt.max_iterations = max_iterations;
   opt.max_time_s = max_time_s;
+  opt.function_tolerance = options_.function_tolerance;
   solver::SolverSummary summary;
   const solver::SolverStatus st = problem_->solve(opt, &summary);
   ++stats_.solves;
+  if (converged != nullptr) *converged = st == solver::SolverStatus::kConverged;
   return solver::usable(st);
 }
 
@@ -988,19 +1031,22 @@ void Estimator::frame_vio(FrameState& f, EstimatorTiming* timing) {
   BuildSpec spec;
   spec.imu = true;
   spec.prior = true;
-  int n3d = 0;
-  for (int k = 0; k < n_lm_index_; ++k) {
-    const Landmark& l = landmarks_[lm_index_[k]];
-    n3d += l.has_depth && !l.outlier && l.stereo ? 1 : 0;
-  }
+  const int n3d = count_candidates(k3DGroup);
   const int it = options_.max_iterations_stage;
+  bool converged = false;
   if (!options_.two_stage) {
     spec.groups = kAllGroups;
-    solve(spec, it, 1e9);
+    solve(spec, it, 1e9, &converged);
   } else if (n3d < options_.min_3d_landmarks) {
     spec.groups = kAllGroups;
-    solve(spec, it, 1e9);
+    solve(spec, it, 1e9, &converged);
     ++stats_.stage_added_2d_right;
+  } else if (n3d >= options_.max_landmarks_in_solve) {
+    // Rich texture: the best landmarks are all 3D, so the 3D + 2D-left solve would be the 3D
+    // solve again (3D rank first): one solve gives both stages' answer.
+    spec.groups = k3DGroup;
+    solve(spec, it, 1e9, &converged);
+    ++stats_.stage_3d_sufficient;
   } else {
     // The paper's two stages: stereo alone and stereo + 2D-left from the same start; agreement
     // keeps the latter, disagreement brings in the 2D-right features as well.
@@ -1011,7 +1057,7 @@ void Estimator::frame_vio(FrameState& f, EstimatorTiming* timing) {
     const Eigen::Quaterniond q_a = quat_of(f.pose).normalized();
     restore_state(*backup_a_);
     spec.groups = k3DGroup | k2DLeftGroup;
-    solve(spec, it, 1e9);
+    solve(spec, it, 1e9, &converged);
     const double dp = (Eigen::Map<const Eigen::Vector3d>(f.pose) - p_a).norm();
     const double dq_deg = q_a.angularDistance(quat_of(f.pose).normalized()) * 180.0 / M_PI;
     if (dp <= options_.stage_agree_m && dq_deg <= options_.stage_agree_deg) {
@@ -1019,14 +1065,20 @@ void Estimator::frame_vio(FrameState& f, EstimatorTiming* timing) {
     } else {
       restore_state(*backup_a_);
       spec.groups = kAllGroups;
-      solve(spec, it, 1e9);
+      solve(spec, it, 1e9, &converged);
       ++stats_.stage_added_2d_right;
     }
   }
   if (timing != nullptr) timing->solve_round1_ms = static_cast<float>(ms_since(t1));
   const auto t2 = std::chrono::steady_clock::now();
-  if (mark_outliers() > 0) compact_landmarks();
-  solve(spec, std::max(1, options_.max_iterations_round2), options_.round2_time_s);
+  // Second round (paper Sec. III-C): after removing outliers, bounded by time; nothing to refine
+  // when round 1 converged on a set without outliers.
+  const int outliers = mark_outliers();
+  if (outliers > 0) compact_landmarks();
+  if (outliers > 0 || !converged) {
+    solve(spec, std::max(1, options_.max_iterations_round2), options_.round2_time_s);
+    ++stats_.second_rounds;
+  }
   if (timing != nullptr) timing->solve_round2_ms = static_cast<float>(ms_since(t2));
 }
 
@@ -1047,7 +1099,6 @@ void Estimator::add_frame(const FrameFeatures& ff, EstimatorOutput* out, Estimat
   f.still = check_standstill(f.t_ns, &sr);
   last_still_ = sr;
   last_still_valid_ = f.still;
-  if (f.still) ++stats_.still_frames;
   timing->preintegrate_ms = static_cast<float>(ms_since(t0));
   last_output_.t_ns = ff.t_ns;
 
@@ -1091,6 +1142,17 @@ void Estimator::add_frame(const FrameFeatures& ff, EstimatorOutput* out, Estimat
   }
   order_[n_++] = slot;
   ingest(ff, slot);
+  // The IMU alone cannot tell rest from uniform motion (both read gravity and no rotation): when
+  // the images can tell, they must agree that nothing moves.
+  if (f.still && n_ >= 2) {
+    const float flow_px = visual_flow_px(order_[n_ - 2], slot, sr.mean_gyro_rad_s);
+      if (flow_px > static_cast<float>(options_.still_max_flow_px)) {
+      f.still = false;
+      last_still_valid_ = false;
+      ++stats_.still_rejected_by_vision;
+    }
+  }
+  if (f.still) ++stats_.still_frames;
   int n2d = 0;
   count_depth_observations(slot, &n2d);
   f.keyframe = keyframes_.update(ff, n2d).is_keyframe;

@@ -106,11 +106,14 @@ struct EstimatorStats {
   std::uint64_t solves = 0;
   std::uint64_t stage_kept_2d_left = 0;   // 3D vs 3D+2D-left agreed
   std::uint64_t stage_added_2d_right = 0; // disagreed or too few 3D: all classes
+  std::uint64_t stage_3d_sufficient = 0;  // enough 3D landmarks to fill the solve: one stage
   std::uint64_t outlier_landmarks = 0;
+  std::uint64_t second_rounds = 0;        // frames whose round 2 ran (outliers or not converged)
   std::uint64_t marginalized_old = 0;
   std::uint64_t marginalized_second_new = 0;
   std::uint64_t marginalization_failures = 0;
   std::uint64_t still_frames = 0;
+  std::uint64_t still_rejected_by_vision = 0;  // IMU at rest but the images moved (uniform motion)
   std::uint64_t resets = 0;             // divergence or visual loss in VO
   double sum_landmarks_in_solve = 0.0;
   std::uint64_t frames_solved = 0;
@@ -172,6 +175,7 @@ class Estimator {
   bool triangulate_landmark(Landmark& l, int exclude_slot);
   void triangulate_all(int exclude_slot);
   int count_depth_observations(int slot, int* n_2d_with_depth) const;
+  float visual_flow_px(int prev_slot, int slot, const Eigen::Vector3d& bg) const;
 
   // Steps of add_frame.
   void close_interval(FrameState& f);
@@ -196,7 +200,8 @@ class Estimator {
     bool fix_first_pose = false;
   };
   int build_problem(const BuildSpec& spec);
-  bool solve(const BuildSpec& spec, int max_iterations, double max_time_s);
+  int count_candidates(std::uint8_t groups) const;
+  bool solve(const BuildSpec& spec, int max_iterations, double max_time_s, bool* converged = nullptr);
   int mark_outliers();
   void save_state(Backup* b) const;
   void restore_state(const Backup& b);

@@ -26,7 +26,7 @@ struct EstimatorOptions {
 
   // --- window and features ---
   int window_size = 11;                   // frames incl. the newest (<= capacity::kWindowSize)
-  int max_landmarks_in_solve = 150;       // landmarks per solve, best first (paper: best 100-300)
+  int max_landmarks_in_solve = 100;       // landmarks per solve, best first (paper: best 100-300)
   double min_depth_m = 0.1;               // m, landmarks closer are rejected
   double max_depth_m = 60.0;              // m, landmarks farther are not used (no parallax)
   double min_triangulation_angle_deg = 0.4;  // deg, ray angle needed to triangulate a 2D feature
@@ -36,9 +36,10 @@ struct EstimatorOptions {
   int min_3d_landmarks = 25;              // fewer 3D landmarks in the window: add 2D-right at once
   double stage_agree_m = 0.05;            // m, stereo vs mono-stereo newest pose agreement
   double stage_agree_deg = 1.0;           // deg
-  int max_iterations_stage = 4;           // LM iterations of each first-round solve
+  int max_iterations_stage = 3;           // LM iterations of each first-round solve
   int max_iterations_round2 = 4;          // LM iterations of the second round
   double round2_time_s = 0.010;           // s, time budget of the second round (paper: bounded)
+  double function_tolerance = 1e-3;       // 1, relative cost change that ends a solve (converged)
   bool two_stage = true;                  // false: one solve with every feature class
 
   // --- initialization (paper Sec. III-B) ---
@@ -59,6 +60,8 @@ struct EstimatorOptions {
   double still_sigma_m = 0.002;           // m, zero-motion constraint between still frames
   double still_sigma_rad = 0.001;         // rad
   double still_sigma_v = 0.01;            // m/s, zero-velocity constraint
+  double still_max_flow_px = 0.5;         // px, mean de-rotated feature motion between frames above
+                                          // which an IMU standstill is uniform motion instead
 
   // --- failure handling ---
   int min_tracked_landmarks = 10;          // fewer observed landmarks in a new frame: visual loss
