@@ -31,8 +31,9 @@ CornerDetector::CornerDetector(int width, int height) : width_(width), height_(h
   }
   const std::size_t n = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
   response_.assign(n, 0.0f);
-  rows_.assign(static_cast<std::size_t>(9 * width), 0.0f);
+  rows_.assign(static_cast<std::size_t>(12 * width), 0.0f);
   mask_.assign(n, 0);
+  flags_.assign(static_cast<std::size_t>(width), 0);
   heap_.reserve(capacity::kMaxCornerCandidates);
 }
 
@@ -57,18 +58,28 @@ bool CornerDetector::is_free(const Eigen::Vector2f& p) const {
   return mask_[static_cast<std::size_t>(y) * static_cast<std::size_t>(width_) + static_cast<std::size_t>(x)] == 0;
 }
 
+namespace {
+
+// out[x] = a[x] + b[x] + c[x] for x in 1 .. w-2 (separate arrays: vectorises).
+void sum3_rows(const float* __restrict a, const float* __restrict b, const float* __restrict c, float* __restrict out, int w) {
+  for (int x = 1; x < w - 1; ++x) out[x] = a[x] + b[x] + c[x];
+}
+
+}  // namespace
+
 // Rolling computation: the Sobel products of row y go into ring slot y % 3; the response of row
-// y - 1 is the 3x3 box sum over slots (y-2, y-1, y). Responses of the outer ring are zero.
-void CornerDetector::compute_response(const ImageView& img) {
+// y - 1 is the 3x3 box sum over slots (y-2, y-1, y), taken separably (vertical 3-row sum, then a
+// horizontal 3-sum). Every product is an integer of at most (4 * 255)^2 and nine of them stay
+// below 2^24, so all these float sums are exact and equal in any order: the separable form gives
+// the same bits as the direct 3x3 sum. The outer two rows and columns stay zero from the
+// constructor (never written). Returns the largest response inside the border b.
+float CornerDetector::compute_response(const ImageView& img, int b) {
   const int w = width_, h = height_;
   const float kNorm = 1.0f / (8.0f * 8.0f * 9.0f);  // Sobel gain 8 per gradient, 9-pixel block mean
-  std::memset(response_.data(), 0, response_.size() * sizeof(float));
-  auto products = [&](int y, float* xx, float* xy, float* yy) {
-    const std::uint8_t* r0 = img.row(y - 1);
-    const std::uint8_t* r1 = img.row(y);
-    const std::uint8_t* r2 = img.row(y + 1);
-    xx[0] = xy[0] = yy[0] = 0.0f;
-    xx[w - 1] = xy[w - 1] = yy[w - 1] = 0.0f;
+  auto products = [&](int y, float* __restrict xx, float* __restrict xy, float* __restrict yy) {
+    const std::uint8_t* __restrict r0 = img.row(y - 1);
+    const std::uint8_t* __restrict r1 = img.row(y);
+    const std::uint8_t* __restrict r2 = img.row(y + 1);
     for (int x = 1; x < w - 1; ++x) {
       const int dx = (r0[x + 1] - r0[x - 1]) + 2 * (r1[x + 1] - r1[x - 1]) + (r2[x + 1] - r2[x - 1]);
       const int dy = (r2[x - 1] - r0[x - 1]) + 2 * (r2[x] - r0[x]) + (r2[x + 1] - r0[x + 1]);
@@ -80,39 +91,41 @@ void CornerDetector::compute_response(const ImageView& img) {
   };
   float* base = rows_.data();
   auto slot = [&](int y, int which) { return base + static_cast<std::size_t>(((y % 3) * 3 + which) * w); };
+  float* va = base + static_cast<std::size_t>(9 * w);  // vertical sums of the three products
+  const float* __restrict vb = va + w;
+  const float* __restrict vc = vb + w;
+  // Eight independent running maxima (the maximum is exact in any order) let the loop vectorise.
+  constexpr int kLanes = 8;
+  float lane_max[kLanes] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
+  float max_r = 0.0f;
   for (int y = 1; y < h - 1; ++y) {
     products(y, slot(y, 0), slot(y, 1), slot(y, 2));
     if (y < 3) continue;
     const int yc = y - 1;  // rows yc-1, yc, yc+1 = y-2, y-1, y are all in the ring
-    const float* a[3] = {slot(y - 2, 0), slot(y - 1, 0), slot(y, 0)};
-    const float* b[3] = {slot(y - 2, 1), slot(y - 1, 1), slot(y, 1)};
-    const float* c[3] = {slot(y - 2, 2), slot(y - 1, 2), slot(y, 2)};
-    float* out = response_.data() + static_cast<std::size_t>(yc) * static_cast<std::size_t>(w);
+    for (int k = 0; k < 3; ++k) sum3_rows(slot(y - 2, k), slot(y - 1, k), slot(y, k), va + k * w, w);
+    float* __restrict out = response_.data() + static_cast<std::size_t>(yc) * static_cast<std::size_t>(w);
     for (int x = 2; x < w - 2; ++x) {
-      float sa = 0.0f, sb = 0.0f, sc = 0.0f;
-      for (int k = 0; k < 3; ++k) {
-        sa += a[k][x - 1] + a[k][x] + a[k][x + 1];
-        sb += b[k][x - 1] + b[k][x] + b[k][x + 1];
-        sc += c[k][x - 1] + c[k][x] + c[k][x + 1];
-      }
-      sa *= kNorm;
-      sb *= kNorm;
-      sc *= kNorm;
+      const float sa = (va[x - 1] + va[x] + va[x + 1]) * kNorm;
+      const float sb = (vb[x - 1] + vb[x] + vb[x + 1]) * kNorm;
+      const float sc = (vc[x - 1] + vc[x] + vc[x + 1]) * kNorm;
       out[x] = 0.5f * ((sa + sc) - std::sqrt((sa - sc) * (sa - sc) + 4.0f * sb * sb));
     }
+    if (yc < b || yc >= h - b) continue;
+    int x = b;
+    for (; x + kLanes <= w - b; x += kLanes) {
+      for (int k = 0; k < kLanes; ++k) lane_max[k] = std::max(lane_max[k], out[x + k]);
+    }
+    for (; x < w - b; ++x) max_r = std::max(max_r, out[x]);
   }
+  for (float m : lane_max) max_r = std::max(max_r, m);
+  return max_r;
 }
 
 int CornerDetector::detect(const ImageView& image, int max_new, const DetectorOptions& options, Eigen::Vector2f* out_px) {
   if (max_new <= 0 || !image.valid() || image.width != width_ || image.height != height_) return 0;
-  compute_response(image);
   const int w = width_, h = height_;
   const int b = std::max(options.border_px, 3);
-  float max_r = 0.0f;
-  for (int y = b; y < h - b; ++y) {
-    const float* r = response_.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(w);
-    for (int x = b; x < w - b; ++x) max_r = std::max(max_r, r[x]);
-  }
+  const float max_r = compute_response(image, b);
   const float thresh = std::max(options.min_response, options.quality_level * max_r);
   auto greater = [](const Candidate& l, const Candidate& r) { return l.score > r.score; };  // min-heap
   heap_.clear();
@@ -122,14 +135,27 @@ int CornerDetector::detect(const ImageView& image, int max_new, const DetectorOp
     const float* r0 = rm + w;
     const float* rp = r0 + w;
     const std::uint8_t* m = mask_.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(w);
+    // Branch-free pass over the row (vectorises): free, above the threshold and a 3x3 maximum,
+    // ties going to the first pixel in scan order. The candidates then enter the heap in scan
+    // order, exactly as a per-pixel test would push them.
+    std::uint8_t* __restrict f = flags_.data();
     for (int x = b; x < w - b; ++x) {
       const float v = r0[x];
-      if (v < thresh || m[x] != 0) continue;
-      // 3x3 maximum; ties go to the first pixel in scan order.
-      if (!(v > rm[x - 1] && v > rm[x] && v > rm[x + 1] && v > r0[x - 1] && v >= r0[x + 1] && v >= rp[x - 1] &&
-            v >= rp[x] && v >= rp[x + 1])) {
-        continue;
+      f[x] = static_cast<std::uint8_t>((m[x] == 0) & (v >= thresh) & (v > rm[x - 1]) & (v > rm[x]) & (v > rm[x + 1]) &
+                                       (v > r0[x - 1]) & (v >= r0[x + 1]) & (v >= rp[x - 1]) & (v >= rp[x]) &
+                                       (v >= rp[x + 1]));
+    }
+    for (int x = b; x < w - b; ++x) {
+      if (x + 8 <= w - b) {
+        std::uint64_t f8;
+        std::memcpy(&f8, f + x, sizeof(f8));
+        if (f8 == 0) {
+          x += 7;
+          continue;
+        }
       }
+      if (f[x] == 0) continue;
+      const float v = r0[x];
       if (heap_.size() < cap) {
         heap_.push_back(Candidate{v, x, y});  // within reserved capacity: no allocation
         std::push_heap(heap_.begin(), heap_.end(), greater);

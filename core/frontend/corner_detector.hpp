@@ -59,12 +59,15 @@ class CornerDetector {
     float score;
     int x, y;
   };
-  void compute_response(const ImageView& image);
+  // Fills response_ and returns its maximum over pixels at least b from the image edge.
+  float compute_response(const ImageView& image, int b);
 
   int width_ = 0, height_ = 0;
   std::vector<float> response_;
-  std::vector<float> rows_;  // 3 rolling rows of Ixx, Ixy, Iyy products (9 * width)
+  std::vector<float> rows_;  // 3 rolling rows of Ixx, Ixy, Iyy products (9 * width), then their
+                             // vertical 3-row sums (3 * width)
   std::vector<std::uint8_t> mask_;
+  std::vector<std::uint8_t> flags_;  // one row: 1 where a pixel is a free 3x3 maximum above the threshold
   std::vector<Candidate> heap_;  // capacity::kMaxCornerCandidates, used as a bounded min-heap
 };
 
