@@ -22,7 +22,7 @@ usage: umsvins <command> [options]
       uniform-start, dark-start, textureless, impulses, right-dropout).
   eval --estimate F --groundtruth F [--align se3|sim3|posyaw] [--cam0-sensor-yaml F]
       Print ATE and RPE of a trajectory against ground truth.
-  sweep <dataset> --runs N --start-range A:B --out DIR
+  sweep <dataset> --runs N --start-range A:B --out DIR [--seed S] [--duration D] [--config F]
       Repeat replay from random start times (robustness table).
   live [--config F] [--source d455|replay:DIR] [--out DIR] [--seconds S]
       Run the threaded board app on a RealSense D455 (or a recorded source). Ctrl-C stops it.
@@ -33,12 +33,6 @@ usage: umsvins <command> [options]
 exit codes: 0 ok, 1 failure (the message names file, line or key), 2 capability not implemented
 yet, 64 wrong usage.
 )";
-
-[[maybe_unused]] int not_implemented(const std::string& command, const char* issue, std::ostream& err) {
-  err << "umsvins " << command << ": not implemented yet (" << issue
-      << "); nothing was run and nothing was written.\n";
-  return kExitNotImplemented;
-}
 
 }  // namespace
 

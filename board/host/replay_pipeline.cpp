@@ -280,6 +280,7 @@ void ReplayPipeline::write_estimator_stats(JsonWriter& w) const {
       .value("poses_written", poses_written_)
       .value("solves", e.solves)
       .value("mean_landmarks_in_solve", e.frames_solved > 0 ? e.sum_landmarks_in_solve / static_cast<double>(e.frames_solved) : 0.0, 4)
+      .value("mean_2d_in_solve", e.frames_solved > 0 ? e.sum_2d_in_solve / static_cast<double>(e.frames_solved) : 0.0, 4)
       .value("stage_kept_2d_left", e.stage_kept_2d_left)
       .value("stage_added_2d_right", e.stage_added_2d_right)
       .value("stage_3d_sufficient", e.stage_3d_sufficient)

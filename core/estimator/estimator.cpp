@@ -458,11 +458,22 @@ int Estimator::build_problem(const BuildSpec& spec) {
   const Landmark* lms = landmarks_.get();
   auto score = [lms](int idx) {
     const Landmark& l = lms[idx];
-    return (l.stereo ? 100000 : 0) + 1000 * l.n_obs + static_cast<int>(std::min<std::uint32_t>(l.track_length, 999));
+    return 1000 * l.n_obs + static_cast<int>(std::min<std::uint32_t>(l.track_length, 999));
   };
-  const int keep = std::min(nc, options_.max_landmarks_in_solve);
-  std::partial_sort(candidates_.get(), candidates_.get() + keep, candidates_.get() + nc,
-                    [&](int a, int b) { return score(a) > score(b); });
+  // 3D landmarks first, each class best first; when 2D classes are allowed they get a share of
+  // the budget (the united features of the paper), 3D fill what 2D cannot.
+  int* begin = candidates_.get();
+  int* mid = std::partition(begin, begin + nc, [lms](int idx) { return lms[idx].stereo; });
+  const int n3 = static_cast<int>(mid - begin), n2 = nc - n3;
+  const int budget = options_.max_landmarks_in_solve;
+  const int share_2d = static_cast<int>(std::lround(options_.share_2d * budget));
+  const int take2 = std::min(n2, std::max(share_2d, budget - n3));
+  const int take3 = std::min(n3, budget - take2);
+  auto better = [&](int a, int b) { return score(a) > score(b); };
+  std::partial_sort(begin, begin + take3, mid, better);
+  std::partial_sort(mid, mid + take2, begin + nc, better);
+  std::copy(mid, mid + take2, begin + take3);  // chosen: [0, take3 + take2)
+  const int keep = take3 + take2;
 
   const solver::RobustLoss huber = solver::RobustLoss::huber(options_.huber_px / options_.sigma_px);
   for (int c = 0; c < keep; ++c) {
@@ -1041,9 +1052,8 @@ void Estimator::frame_vio(FrameState& f, EstimatorTiming* timing) {
     spec.groups = kAllGroups;
     solve(spec, it, 1e9, &converged);
     ++stats_.stage_added_2d_right;
-  } else if (n3d >= options_.max_landmarks_in_solve) {
-    // Rich texture: the best landmarks are all 3D, so the 3D + 2D-left solve would be the 3D
-    // solve again (3D rank first): one solve gives both stages' answer.
+  } else if (count_candidates(k2DLeftGroup) == 0) {
+    // No 2D-left landmark to add: the second stage would be the first again.
     spec.groups = k3DGroup;
     solve(spec, it, 1e9, &converged);
     ++stats_.stage_3d_sufficient;
@@ -1052,7 +1062,7 @@ void Estimator::frame_vio(FrameState& f, EstimatorTiming* timing) {
     // keeps the latter, disagreement brings in the 2D-right features as well.
     save_state(backup_a_.get());
     spec.groups = k3DGroup;
-    solve(spec, it, 1e9);
+    solve(spec, options_.max_iterations_stage_a, 1e9);
     const Eigen::Vector3d p_a = Eigen::Map<const Eigen::Vector3d>(f.pose);
     const Eigen::Quaterniond q_a = quat_of(f.pose).normalized();
     restore_state(*backup_a_);
@@ -1206,6 +1216,7 @@ void Estimator::add_frame(const FrameFeatures& ff, EstimatorOutput* out, Estimat
       }
     }
     stats_.sum_landmarks_in_solve += n_selected_;
+    stats_.sum_2d_in_solve += o.n_2d_left_used + o.n_2d_right_used;
     ++stats_.frames_solved;
   }
   if (out != nullptr) *out = o;

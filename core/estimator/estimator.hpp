@@ -106,7 +106,7 @@ struct EstimatorStats {
   std::uint64_t solves = 0;
   std::uint64_t stage_kept_2d_left = 0;   // 3D vs 3D+2D-left agreed
   std::uint64_t stage_added_2d_right = 0; // disagreed or too few 3D: all classes
-  std::uint64_t stage_3d_sufficient = 0;  // enough 3D landmarks to fill the solve: one stage
+  std::uint64_t stage_3d_sufficient = 0;  // no 2D-left landmark to try: one stage
   std::uint64_t outlier_landmarks = 0;
   std::uint64_t second_rounds = 0;        // frames whose round 2 ran (outliers or not converged)
   std::uint64_t marginalized_old = 0;
@@ -116,6 +116,7 @@ struct EstimatorStats {
   std::uint64_t still_rejected_by_vision = 0;  // IMU at rest but the images moved (uniform motion)
   std::uint64_t resets = 0;             // divergence or visual loss in VO
   double sum_landmarks_in_solve = 0.0;
+  double sum_2d_in_solve = 0.0;         // 2D-left + 2D-right landmarks in the final solves
   std::uint64_t frames_solved = 0;
   std::size_t peak_landmarks = 0;       // landmark pool use
   std::size_t peak_residuals = 0;       // visual residual objects

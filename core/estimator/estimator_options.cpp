@@ -28,6 +28,8 @@ void EstimatorOptions::validate() const {
   require(min_triangulation_angle_deg > 0.0, "min_triangulation_angle_deg", min_triangulation_angle_deg);
   require(outlier_px > 0.0, "outlier_px", outlier_px);
   require(max_iterations_stage >= 1, "max_iterations_stage", max_iterations_stage);
+  require(max_iterations_stage_a >= 1, "max_iterations_stage_a", max_iterations_stage_a);
+  require(share_2d >= 0.0 && share_2d <= 1.0, "share_2d", share_2d);
   require(max_iterations_round2 >= 0, "max_iterations_round2", max_iterations_round2);
   require(round2_time_s >= 0.0, "round2_time_s", round2_time_s);
   require(min_align_frames >= 3 && min_align_frames <= window_size, "min_align_frames", min_align_frames);

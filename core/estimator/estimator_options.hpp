@@ -36,7 +36,9 @@ struct EstimatorOptions {
   int min_3d_landmarks = 25;              // fewer 3D landmarks in the window: add 2D-right at once
   double stage_agree_m = 0.05;            // m, stereo vs mono-stereo newest pose agreement
   double stage_agree_deg = 1.0;           // deg
-  int max_iterations_stage = 3;           // LM iterations of each first-round solve
+  int max_iterations_stage = 3;           // LM iterations of the first-round solve that is kept
+  int max_iterations_stage_a = 2;         // LM iterations of the stereo-only check solve
+  double share_2d = 0.3;                  // 1, share of the landmark budget offered to 2D features
   int max_iterations_round2 = 4;          // LM iterations of the second round
   double round2_time_s = 0.010;           // s, time budget of the second round (paper: bounded)
   double function_tolerance = 1e-3;       // 1, relative cost change that ends a solve (converged)

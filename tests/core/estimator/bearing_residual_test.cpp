@@ -1,0 +1,98 @@
+#include "core/estimator/bearing_residual.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <Eigen/Geometry>
+
+#include "tests/core/estimator/jacobian_check.hpp"
+
+namespace {
+
+void set_pose(double* x, const Eigen::Vector3d& p, const Eigen::Quaterniond& q) {
+  x[0] = p.x(); x[1] = p.y(); x[2] = p.z();
+  x[3] = q.x(); x[4] = q.y(); x[5] = q.z(); x[6] = q.w();
+}
+
+Eigen::Isometry3d iso(const double* x) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::Quaterniond(x[6], x[3], x[4], x[5]).toRotationMatrix();
+  T.translation() = Eigen::Vector3d(x[0], x[1], x[2]);
+  return T;
+}
+
+struct Scene {
+  double pose_h[7], pose_t[7], ext0[7], ext1[7];
+  double rho = 0.25;  // 4 m
+  Eigen::Vector3d b_host;
+  Scene() {
+    set_pose(pose_h, {0.1, -0.2, 1.0}, Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized())));
+    set_pose(pose_t, {0.4, 0.1, 1.1}, Eigen::Quaterniond(Eigen::AngleAxisd(0.5, Eigen::Vector3d(-1, 2, 1).normalized())));
+    set_pose(ext0, {0.02, -0.06, 0.01}, Eigen::Quaterniond(Eigen::AngleAxisd(1.5, Eigen::Vector3d(0.1, 0.2, 1).normalized())));
+    set_pose(ext1, {0.03, 0.05, 0.0}, Eigen::Quaterniond(Eigen::AngleAxisd(1.52, Eigen::Vector3d(0.1, 0.2, 1).normalized())));
+    b_host = Eigen::Vector3d(0.1, -0.05, 1.0).normalized();
+  }
+  // Bearing at which the target camera sees the landmark.
+  Eigen::Vector3d truth(bool same_frame, const double* ext_t) const {
+    const Eigen::Vector3d P_bh = iso(ext0) * (b_host / rho);
+    const Eigen::Vector3d P_bt = same_frame ? P_bh : Eigen::Vector3d(iso(pose_t).inverse() * (iso(pose_h) * P_bh));
+    return (iso(ext_t).inverse() * P_bt).normalized();
+  }
+};
+
+}  // namespace
+
+TEST_CASE("bearing residual is zero at the truth and its Jacobians match central differences", "[estimator]") {
+  Scene s;
+  const double w = 460.0 / 1.5;
+  ums::BearingResidual r;
+  double res[2];
+
+  SECTION("two frames, same camera") {
+    r.set(ums::BearingResidual::Kind::kTwoFrames, true, s.b_host, s.truth(false, s.ext0), w);
+    const double* p[] = {s.pose_h, s.pose_t, s.ext0, &s.rho};
+    REQUIRE(r.evaluate(p, res, nullptr));
+    CHECK(std::hypot(res[0], res[1]) < 1e-9);
+    const Eigen::Vector3d noisy = (s.truth(false, s.ext0) + Eigen::Vector3d(0.01, -0.02, 0.0)).normalized();
+    r.set(ums::BearingResidual::Kind::kTwoFrames, true, s.b_host, noisy, w);
+    CHECK(ums::test::max_jacobian_error(r, {{s.pose_h, 7, true}, {s.pose_t, 7, true}, {s.ext0, 7, true}, {&s.rho, 1, false}}) < 1e-6);
+  }
+  SECTION("two frames, other camera") {
+    r.set(ums::BearingResidual::Kind::kTwoFrames, false, s.b_host, s.truth(false, s.ext1), w);
+    const double* p[] = {s.pose_h, s.pose_t, s.ext0, s.ext1, &s.rho};
+    REQUIRE(r.evaluate(p, res, nullptr));
+    CHECK(std::hypot(res[0], res[1]) < 1e-9);
+    const Eigen::Vector3d noisy = (s.truth(false, s.ext1) + Eigen::Vector3d(-0.01, 0.01, 0.02)).normalized();
+    r.set(ums::BearingResidual::Kind::kTwoFrames, false, s.b_host, noisy, w);
+    CHECK(ums::test::max_jacobian_error(
+              r, {{s.pose_h, 7, true}, {s.pose_t, 7, true}, {s.ext0, 7, true}, {s.ext1, 7, true}, {&s.rho, 1, false}}) < 1e-6);
+  }
+  SECTION("stereo pair of the host frame") {
+    r.set(ums::BearingResidual::Kind::kSameFrame, false, s.b_host, s.truth(true, s.ext1), w);
+    const double* p[] = {s.ext0, s.ext1, &s.rho};
+    REQUIRE(r.evaluate(p, res, nullptr));
+    CHECK(std::hypot(res[0], res[1]) < 1e-9);
+    const Eigen::Vector3d noisy = (s.truth(true, s.ext1) + Eigen::Vector3d(0.02, 0.0, -0.01)).normalized();
+    r.set(ums::BearingResidual::Kind::kSameFrame, false, s.b_host, noisy, w);
+    CHECK(ums::test::max_jacobian_error(r, {{s.ext0, 7, true}, {s.ext1, 7, true}, {&s.rho, 1, false}}) < 1e-6);
+  }
+}
+
+TEST_CASE("bearing residual: 1 px of image error is 1 / sigma after whitening; behind the camera is refused", "[estimator]") {
+  Scene s;
+  const double f_px = 460.0, sigma_px = 1.5;
+  const Eigen::Vector3d b = s.truth(false, s.ext0);
+  // Rotate the measured bearing by 1 px worth of angle.
+  const Eigen::Vector3d axis = b.cross(Eigen::Vector3d::UnitX()).normalized();
+  const Eigen::Vector3d b_off = Eigen::AngleAxisd(1.0 / f_px, axis) * b;
+  ums::BearingResidual r;
+  r.set(ums::BearingResidual::Kind::kTwoFrames, true, s.b_host, b_off, f_px / sigma_px);
+  const double* p[] = {s.pose_h, s.pose_t, s.ext0, &s.rho};
+  double res[2];
+  REQUIRE(r.evaluate(p, res, nullptr));
+  CHECK(std::hypot(res[0], res[1]) == Approx(1.0 / sigma_px).epsilon(1e-4));
+  double e_rad = 0.0;
+  REQUIRE(r.error_rad(p, &e_rad));
+  CHECK(e_rad * f_px == Approx(1.0).epsilon(1e-4));
+  s.rho = -0.25;  // negative inverse depth: not a point in front of the host
+  CHECK_FALSE(r.evaluate(p, res, nullptr));
+}
