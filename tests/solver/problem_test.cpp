@@ -352,9 +352,14 @@ TEST_CASE("Speed-bias chain eliminated before the dense LLT: steps equal dense s
   check_schur_steps(cfg);
 }
 
-TEST_CASE("Marginalization gives the same step as the full problem's reduced system",
-          "[solver][problem][marginalization]") {
-  auto w = bench::make_vio_window(small_window(false, true));
+namespace {
+
+// Marginalizes frame 0 and its landmarks, checks the prior's blocks, then that one Gauss-Newton
+// step of (remaining residuals + prior) equals the full problem's step on every kept block.
+void check_marginalization(bool with_prior, int expected_blocks, int expected_dim) {
+  // Without an old prior the full problem has a gauge freedom (Gauss-Newton cannot step): then
+  // only the prior's blocks and information are checked.
+  auto w = bench::make_vio_window(small_window(false, with_prior));
   auto full = std::make_unique<Problem>();
   REQUIRE(bench::add_to_problem(*w, *full) == SolverStatus::kOk);
   const std::vector<double> x0 = snapshot(*w);
@@ -367,10 +372,15 @@ TEST_CASE("Marginalization gives the same step as the full problem's reduced sys
   REQUIRE(marg.size() > 3);
   auto prior = std::make_unique<MarginalPrior>();
   REQUIRE(full->marginalize(marg.data(), static_cast<int>(marg.size()), prior.get()) == SolverStatus::kOk);
-  // Kept: poses 1..4 (IMU 0-1, landmarks, old prior), speed-bias 1 (IMU), extrinsic, and the
-  // speed-biases 2..4 are untouched, so not in the prior.
-  CHECK(prior->num_blocks() == 4 + 1 + 1);
-  CHECK(prior->dim() == 4 * 6 + 9 + 6);
+  CHECK(prior->num_blocks() == expected_blocks);
+  CHECK(prior->dim() == expected_dim);
+  for (int i = 0; i < prior->num_blocks(); ++i) {
+    const PriorBlock& pb = prior->block(i);
+    const double info = prior->information().block(pb.offset, pb.offset, pb.tangent_size, pb.tangent_size).trace();
+    INFO("prior block " << i << " (source " << pb.source_id << ")");
+    CHECK(info > 0.0);
+  }
+  if (!with_prior) return;
 
   // Full problem, one Gauss-Newton step from x0.
   SolverSummary sum;
@@ -418,6 +428,22 @@ TEST_CASE("Marginalization gives the same step as the full problem's reduced sys
   INFO("max |step difference| " << worst << " max |step| " << scale);
   CHECK(scale > 1e-3);
   CHECK(worst <= 1e-9 * scale);
+}
+
+}  // namespace
+
+TEST_CASE("Marginalization gives the same step as the full problem's reduced system",
+          "[solver][problem][marginalization]") {
+  // Kept: poses 1..4 (IMU 0-1, landmarks, old prior), speed-bias 1 (IMU), extrinsic, and the
+  // speed-biases 2..4 are untouched, so not in the prior.
+  check_marginalization(true, 4 + 1 + 1, 4 * 6 + 9 + 6);
+}
+
+TEST_CASE("Marginalization without an old prior keeps the poses reached only by reprojections",
+          "[solver][problem][marginalization]") {
+  // No old prior: poses 2..4 are coupled to frame 0 only through its landmarks' 2-row
+  // reprojection residuals (the fast accumulation path); they must be in the new prior.
+  check_marginalization(false, 4 + 1 + 1, 4 * 6 + 9 + 6);
 }
 
 TEST_CASE("NaN and Inf inputs are rejected with a status, values untouched", "[solver][problem]") {
