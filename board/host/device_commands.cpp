@@ -154,6 +154,18 @@ int run_live(const std::vector<std::string>& argv, std::ostream& out, std::ostre
   ReplayPipeline pipeline(config, ReplayPipelineOptions{});
   pipeline.set_static_bytes(static_cast<std::size_t>(startup_allocs.bytes()) + sizeof(ReplayPipeline));
   auto bridge = std::make_unique<d455::ThreadBridge>(config.rig.cam[0].width, config.rig.cam[0].height);
+  // Poses: camera-rate optimized (trajectory.tum) and IMU-rate propagated (trajectory_imu.tum).
+  const std::filesystem::path trajectory_path = out_dir / "trajectory.tum";
+  const std::filesystem::path imu_path = out_dir / "trajectory_imu.tum";
+  std::FILE* trajectory = std::fopen(trajectory_path.c_str(), "w");
+  std::FILE* imu_poses = std::fopen(imu_path.c_str(), "w");
+  if (trajectory == nullptr || imu_poses == nullptr) {
+    if (trajectory != nullptr) std::fclose(trajectory);
+    if (imu_poses != nullptr) std::fclose(imu_poses);
+    throw std::runtime_error(out_dir.string() + ": cannot open the pose files for writing");
+  }
+  pipeline.set_trajectory_output(trajectory);
+  pipeline.set_imu_pose_output(imu_poses);
 
   SigintScope sigint;
   std::atomic<bool> producer_done{false};
@@ -194,6 +206,9 @@ int run_live(const std::vector<std::string>& argv, std::ostream& out, std::ostre
     }
   }
   capture.join();
+  pipeline.set_trajectory_output(nullptr);
+  pipeline.set_imu_pose_output(nullptr);
+  const bool poses_ok = std::fclose(trajectory) == 0 && std::fclose(imu_poses) == 0;
 
   const ReplaySummary summary = pipeline.summary();
   JsonWriter w;
@@ -212,7 +227,12 @@ int run_live(const std::vector<std::string>& argv, std::ostream& out, std::ostre
       << source << "; ring overflows: " << bridge->frames_dropped() << " frames, " << bridge->imu_dropped()
       << " IMU samples\n";
   pipeline.print_summary(out);
-  out << "live: no poses: the estimator is not implemented yet (issue 7)\n";
+  out << "live: " << pipeline.poses_written() << " poses in " << trajectory_path.string() << ", IMU-rate poses in "
+      << imu_path.string() << "\n";
+  if (!poses_ok) {
+    err << "umsvins live: writing the pose files failed (disk full?)\n";
+    return kExitFailure;
+  }
   if (producer_status != Status::kOk) {
     err << "umsvins live: " << producer_error << "\n";
     return kExitFailure;

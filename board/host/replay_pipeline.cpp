@@ -30,6 +30,12 @@ EstimatorOptions estimator_options_from(const AppConfig& config) {
   return o;
 }
 
+// One TUM line (t_s x y z qx qy qz qw); stdio into a buffered FILE allocates nothing per line.
+void write_pose(std::FILE* f, std::int64_t t_ns, const Eigen::Vector3d& p, const Eigen::Quaterniond& q) {
+  std::fprintf(f, "%lld.%09lld %.7f %.7f %.7f %.9f %.9f %.9f %.9f\n", static_cast<long long>(t_ns / 1000000000),
+               static_cast<long long>(t_ns % 1000000000), p.x(), p.y(), p.z(), q.x(), q.y(), q.z(), q.w());
+}
+
 }  // namespace
 
 ReplayPipeline::ReplayPipeline(const AppConfig& config, const ReplayPipelineOptions& options)
@@ -75,7 +81,13 @@ void ReplayPipeline::on_imu(const ImuSample& sample) {
     }
     last_imu_t_ns_ = sample.t_ns;
     ++summary_.imu_samples;
-    if (estimator_ != nullptr) estimator_->add_imu(clipped);
+    if (estimator_ != nullptr) {
+      estimator_->add_imu(clipped);
+      NavState nav;
+      if (imu_poses_ != nullptr && summary_.frames > 0 && estimator_->imu_rate_state(&nav)) {
+        write_pose(imu_poses_, sample.t_ns, nav.p_w_b, nav.q_w_b);
+      }
+    }
   }
   summary_.processing_s +=
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -130,11 +142,7 @@ void ReplayPipeline::on_stereo(const StereoFrame& frame) {
       times_->record(Stage::kBackend, timing.backend_ms);
       backend_ms = timing.backend_ms;
       if (est.valid) {
-        if (trajectory_ != nullptr) {
-          std::fprintf(trajectory_, "%.9f %.6f %.6f %.6f %.9f %.9f %.9f %.9f\n", static_cast<double>(est.t_ns) * 1e-9,
-                       est.p_w_b.x(), est.p_w_b.y(), est.p_w_b.z(), est.q_w_b.x(), est.q_w_b.y(), est.q_w_b.z(),
-                       est.q_w_b.w());
-        }
+        if (trajectory_ != nullptr) write_pose(trajectory_, est.t_ns, est.p_w_b, est.q_w_b);
         ++poses_written_;
         if (series_.est_t_s.size() < series_.est_t_s.capacity()) {
           series_.est_t_s.push_back(static_cast<double>(frame.t_ns - first_t_ns_) * 1e-9);

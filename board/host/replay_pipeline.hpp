@@ -58,6 +58,8 @@ class ReplayPipeline final : public MeasurementSink {
   // Where one body pose per frame goes (TUM: t_s x y z qx qy qz qw), written as frames are
   // processed; nullptr: nowhere. The caller owns the file.
   void set_trajectory_output(std::FILE* file) { trajectory_ = file; }
+  // Where the IMU-rate pose goes (same format, one line per IMU sample once a pose exists).
+  void set_imu_pose_output(std::FILE* file) { imu_poses_ = file; }
   std::uint64_t poses_written() const { return poses_written_; }
   const StageTimes& stage_times() const { return *times_; }
   ReplaySummary summary() const;
@@ -95,6 +97,7 @@ class ReplayPipeline final : public MeasurementSink {
   Frontend frontend_;
   std::unique_ptr<Estimator> estimator_;  // null with frontend_only
   std::FILE* trajectory_ = nullptr;
+  std::FILE* imu_poses_ = nullptr;
   std::uint64_t poses_written_ = 0;
   FrameFeatures* features_;  // one frame's features, allocated once
   // Gyro-integrated rotation of the body since the previous frame: the front end's KLT hint.

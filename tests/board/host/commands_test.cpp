@@ -1,9 +1,12 @@
 #include "board/host/commands.hpp"
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include <catch2/catch.hpp>
 
@@ -86,10 +89,10 @@ TEST_CASE("umsvins live --source replay: the threaded path sees what the single-
           "[cli][real]") {
   const std::string replay_dir = test::make_temp_dir("cli_live_replay");
   const std::string live_dir = test::make_temp_dir("cli_live_live");
-  const Run replay = run({"replay", test::euroc_micro_dir(), "--out", replay_dir, "--duration", "1.0",
+  const Run replay = run({"replay", test::euroc_micro_dir(), "--out", replay_dir, "--duration", "2.0",
                           "--quiet"});
   REQUIRE(replay.code == kExitOk);
-  const Run live = run({"live", "--source", "replay:" + test::euroc_micro_dir(), "--duration", "1.0",
+  const Run live = run({"live", "--source", "replay:" + test::euroc_micro_dir(), "--duration", "2.0",
                         "--out", live_dir});
   INFO(live.err);
   REQUIRE(live.code == kExitOk);
@@ -104,8 +107,34 @@ TEST_CASE("umsvins live --source replay: the threaded path sees what the single-
   const std::string replay_stats = read_all(replay_dir + "/stats.json");
   const std::string live_stats = read_all(live_dir + "/stats.json");
   CHECK(block(live_stats, "\"features\"") == block(replay_stats, "\"features\""));
-  CHECK(live_stats.find("\"frames\": 21") != std::string::npos);
-  CHECK(replay_stats.find("\"frames\": 21") != std::string::npos);
+  CHECK(live_stats.find("\"frames\": 41") != std::string::npos);
+  CHECK(replay_stats.find("\"frames\": 41") != std::string::npos);
+
+  // The same poses, frame by frame (the estimator initializes at rest within this window).
+  const auto poses = [](const std::string& path) {
+    std::vector<std::vector<double>> rows;
+    std::ifstream in(path);
+    std::string line;
+    while (std::getline(in, line)) {
+      if (line.empty() || line[0] == '#') continue;
+      std::istringstream f(line);
+      std::vector<double> v(8);
+      for (double& x : v) f >> x;
+      rows.push_back(v);
+    }
+    return rows;
+  };
+  const auto a = poses(replay_dir + "/trajectory.tum");
+  const auto b = poses(live_dir + "/trajectory.tum");
+  REQUIRE(a.size() == 41);
+  REQUIRE(b.size() == a.size());
+  double worst_m = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    CHECK(a[i][0] == b[i][0]);
+    for (int k = 1; k <= 3; ++k) worst_m = std::max(worst_m, std::abs(a[i][static_cast<std::size_t>(k)] - b[i][static_cast<std::size_t>(k)]));
+  }
+  CHECK(worst_m <= 1e-6);
+  CHECK(poses(live_dir + "/trajectory_imu.tum").size() >= 300);  // 2 s at 200 Hz after the first frame
 }
 
 TEST_CASE("umsvins simulate writes a dataset that replay reads, eval scores an estimate of it",
