@@ -26,15 +26,22 @@ void sample_patch_bilinear(const ImageView& image, float x, float y, int n, floa
   const float ax = x - fx0, ay = y - fy0;
   // One fraction for the whole patch: four weights, reused for every sample.
   const float w00 = (1.0f - ax) * (1.0f - ay), w01 = ax * (1.0f - ay), w10 = (1.0f - ax) * ay, w11 = ax * ay;
-  if (x0 >= 0 && y0 >= 0 && x0 + n < image.width && y0 + n < image.height) {
+  constexpr int kMaxRow = KltOptions::kMaxWindowPx + 3;  // the largest patch sampled: window + 2, plus 1
+  if (x0 >= 0 && y0 >= 0 && x0 + n < image.width && y0 + n < image.height && n + 1 <= kMaxRow) {
+    // Each source row is converted to float once and serves two output rows. The products and
+    // their order are those of the direct formula, so the samples are bit-identical to it.
+    alignas(16) float rows[2][kMaxRow];
+    auto convert = [&](int j, float* __restrict f) {
+      const std::uint8_t* __restrict r = image.row(y0 + j) + x0;
+      for (int i = 0; i <= n; ++i) f[i] = static_cast<float>(r[i]);
+    };
+    convert(0, rows[0]);
     for (int j = 0; j < n; ++j) {
-      const std::uint8_t* r0 = image.row(y0 + j) + x0;
-      const std::uint8_t* r1 = r0 + image.stride;
-      float* o = out + j * n;
-      for (int i = 0; i < n; ++i) {
-        o[i] = w00 * static_cast<float>(r0[i]) + w01 * static_cast<float>(r0[i + 1]) + w10 * static_cast<float>(r1[i]) +
-               w11 * static_cast<float>(r1[i + 1]);
-      }
+      const float* __restrict f0 = rows[j & 1];
+      float* __restrict f1 = rows[(j + 1) & 1];
+      convert(j + 1, f1);
+      float* __restrict o = out + j * n;
+      for (int i = 0; i < n; ++i) o[i] = w00 * f0[i] + w01 * f0[i + 1] + w10 * f1[i] + w11 * f1[i + 1];
     }
     return;
   }
