@@ -62,23 +62,25 @@ Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels,
                  const Eigen::Vector2f& p_prev, Eigen::Vector2f* p_curr) {
   constexpr int kMaxN = KltOptions::kMaxWindowPx;
   constexpr int kMaxT = kMaxN + 2;
+  // The window sums are Eigen array reductions (vectorised, several partial sums).
+  using ArrMap = Eigen::Map<const Eigen::ArrayXf, Eigen::Aligned16>;
   float tmpl_ext[kMaxT * kMaxT];
-  float tmpl[kMaxN * kMaxN];
-  float gx[kMaxN * kMaxN];
-  float gy[kMaxN * kMaxN];
-  float warped[kMaxN * kMaxN];
+  alignas(16) float tmpl[kMaxN * kMaxN];
+  alignas(16) float gx[kMaxN * kMaxN];
+  alignas(16) float gy[kMaxN * kMaxN];
+  alignas(16) float warped[kMaxN * kMaxN];
 
   const int n = options.window_px;
   const int half = n / 2;
   const int ne = n + 2;
-  const float inv_area = 1.0f / static_cast<float>(n * n);
+  const int nn = n * n;
+  const float inv_area = 1.0f / static_cast<float>(nn);
   levels = std::min({levels, prev.levels(), curr.levels()});
   if (levels < 1 || !std::isfinite(p_curr->x()) || !std::isfinite(p_curr->y())) return Status::kNotConverged;
 
   const float top_scale = 1.0f / static_cast<float>(1 << (levels - 1));
   // Displacement (guess + flow) carried from level to level, in the current level's pixels.
   Eigen::Vector2f g = (*p_curr - p_prev) * top_scale;
-  float tmpl_mean = 0.0f;
   for (int level = levels - 1; level >= 0; --level) {
     const float scale = 1.0f / static_cast<float>(1 << level);
     const ImageView& I = prev.level(level);
@@ -86,23 +88,18 @@ Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels,
     const Eigen::Vector2f p = p_prev * scale;
 
     sample_patch_bilinear(I, p.x() - static_cast<float>(half + 1), p.y() - static_cast<float>(half + 1), ne, tmpl_ext);
-    float gxx = 0.0f, gxy = 0.0f, gyy = 0.0f, sum_t = 0.0f;
     for (int j = 0; j < n; ++j) {
       const float* c = tmpl_ext + (j + 1) * ne + 1;
       for (int i = 0; i < n; ++i) {
         const int k = j * n + i;
-        const float dx = 0.5f * (c[i + 1] - c[i - 1]);
-        const float dy = 0.5f * (c[i + ne] - c[i - ne]);
         tmpl[k] = c[i];
-        sum_t += c[i];
-        gx[k] = dx;
-        gy[k] = dy;
-        gxx += dx * dx;
-        gxy += dx * dy;
-        gyy += dy * dy;
+        gx[k] = 0.5f * (c[i + 1] - c[i - 1]);
+        gy[k] = 0.5f * (c[i + ne] - c[i - ne]);
       }
     }
-    tmpl_mean = sum_t * inv_area;
+    const ArrMap GX(gx, nn), GY(gy, nn);
+    const float gxx = GX.square().sum(), gxy = (GX * GY).sum(), gyy = GY.square().sum();
+    const float sum_gx = GX.sum(), sum_gy = GY.sum();
     // Smallest eigenvalue of the mean structure tensor: an untextured window cannot be tracked.
     const float a = gxx * inv_area, b = gxy * inv_area, c2 = gyy * inv_area;
     const float min_eig = 0.5f * ((a + c2) - std::sqrt((a - c2) * (a - c2) + 4.0f * b * b));
@@ -128,16 +125,15 @@ Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels,
       }
       sample_patch_bilinear(J, qx - static_cast<float>(half), qy - static_cast<float>(half), n, warped);
       // Intensity offset between the windows (exposure, or the two cameras' gains) removed:
-      // e = (T - mean T) - (J - mean J).
-      float sum_j = 0.0f;
-      for (int k = 0; k < n * n; ++k) sum_j += warped[k];
-      const float bias = tmpl_mean - sum_j * inv_area;
-      float bx = 0.0f, by = 0.0f;
-      for (int k = 0; k < n * n; ++k) {
-        const float e = tmpl[k] - warped[k] - bias;
-        bx += e * gx[k];
-        by += e * gy[k];
-      }
+      // e = (T - mean T) - (J - mean J) = d - mean d with d = T - J, so
+      // sum e g = sum d g - mean(d) sum g (d is small near convergence: no cancellation).
+      const ArrMap T(tmpl, nn), W(warped, nn);
+      const float sum_d = (T - W).sum();
+      float bx = ((T - W) * GX).sum();
+      float by = ((T - W) * GY).sum();
+      const float mean_d = sum_d * inv_area;
+      bx -= mean_d * sum_gx;
+      by -= mean_d * sum_gy;
       const float ex = inv_det * (gyy * bx - gxy * by);
       const float ey = inv_det * (gxx * by - gxy * bx);
       nu.x() += ex;
@@ -164,11 +160,9 @@ Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels,
   }
   // Photometric check at level 0 (the template was sampled at level 0 in the last pass).
   sample_patch_bilinear(J0, result.x() - static_cast<float>(half), result.y() - static_cast<float>(half), n, warped);
-  float sum_j = 0.0f;
-  for (int k = 0; k < n * n; ++k) sum_j += warped[k];
-  const float bias = tmpl_mean - sum_j * inv_area;
-  float sum_abs = 0.0f;
-  for (int k = 0; k < n * n; ++k) sum_abs += std::abs(tmpl[k] - warped[k] - bias);
+  const ArrMap T(tmpl, nn), W(warped, nn);
+  const float mean_d = (T - W).sum() * inv_area;
+  const float sum_abs = (T - W - mean_d).abs().sum();
   if (!(sum_abs * inv_area <= options.max_mean_abs_error)) return Status::kNotConverged;
   *p_curr = result;
   return Status::kOk;
