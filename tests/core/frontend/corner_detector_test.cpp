@@ -1,6 +1,8 @@
 #include "core/frontend/corner_detector.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 #include <catch2/catch.hpp>
 
@@ -88,4 +90,66 @@ TEST_CASE("a flat image with sensor-like noise yields no corners (absolute respo
   Eigen::Vector2f pts[50];
   det.clear_mask();
   CHECK(det.detect(img.view(), 50, ums::DetectorOptions{}, pts) == 0);
+}
+
+TEST_CASE("the separable Shi-Tomasi response equals the direct 3x3 sum bit for bit, extreme gradients included") {
+  // Random pixels with a band of 0/255 single-pixel checkers: Sobel magnitudes up to 4 * 255, where
+  // nine squared products come closest to 2^24 (the bound that keeps every float sum exact).
+  const int w = 97, h = 61;
+  ums::test::GreyImage img(w, h);
+  std::uint32_t s = 2463534242u;
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      s ^= s << 13;
+      s ^= s >> 17;
+      s ^= s << 5;
+      img.at(x, y) = (y >= 20 && y < 30) ? static_cast<std::uint8_t>(((x + y) & 1) * 255) : static_cast<std::uint8_t>(s >> 24);
+    }
+  }
+  ums::CornerDetector det(w, h);
+  det.clear_mask();
+  Eigen::Vector2f pts[4];
+  ums::DetectorOptions opt;
+  (void)det.detect(img.view(), 4, opt, pts);
+  const ums::ImageView v = img.view();
+  int mismatches = 0, nonzero_border = 0;
+  float largest = 0.0f;
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      if (y < 2 || y >= h - 2 || x < 2 || x >= w - 2) {
+        nonzero_border += det.response(x, y) != 0.0f ? 1 : 0;
+        continue;
+      }
+      // The direct form: Sobel products of the 3x3 neighbourhood summed row by row.
+      float sa = 0.0f, sb = 0.0f, sc = 0.0f;
+      for (int j = -1; j <= 1; ++j) {
+        float ra = 0.0f, rb = 0.0f, rc = 0.0f;
+        for (int i = -1; i <= 1; ++i) {
+          const int cx = x + i, cy = y + j;
+          const std::uint8_t* r0 = v.row(cy - 1);
+          const std::uint8_t* r1 = v.row(cy);
+          const std::uint8_t* r2 = v.row(cy + 1);
+          const float dx = static_cast<float>((r0[cx + 1] - r0[cx - 1]) + 2 * (r1[cx + 1] - r1[cx - 1]) + (r2[cx + 1] - r2[cx - 1]));
+          const float dy = static_cast<float>((r2[cx - 1] - r0[cx - 1]) + 2 * (r2[cx] - r0[cx]) + (r2[cx + 1] - r0[cx + 1]));
+          ra += dx * dx;
+          rb += dx * dy;
+          rc += dy * dy;
+        }
+        sa += ra;
+        sb += rb;
+        sc += rc;
+      }
+      const float k = 1.0f / (8.0f * 8.0f * 9.0f);
+      sa *= k;
+      sb *= k;
+      sc *= k;
+      const float ref = 0.5f * ((sa + sc) - std::sqrt((sa - sc) * (sa - sc) + 4.0f * sb * sb));
+      mismatches += det.response(x, y) != ref ? 1 : 0;
+      largest = std::max(largest, sa + sc);
+    }
+  }
+  INFO("largest Ixx + Iyy " << largest << " (grey/px)^2");
+  CHECK(largest > 3000.0f);  // the checker band did reach near-maximal gradients
+  CHECK(mismatches == 0);
+  CHECK(nonzero_border == 0);
 }

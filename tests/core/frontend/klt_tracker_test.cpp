@@ -1,6 +1,8 @@
 #include "core/frontend/klt_tracker.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 #include <catch2/catch.hpp>
 
@@ -112,4 +114,43 @@ TEST_CASE("KltOptions::validate rejects an even window") {
   ums::KltOptions o;
   o.window_px = 20;
   CHECK_THROWS_AS(o.validate(), std::invalid_argument);
+}
+
+TEST_CASE("bilinear patch sampling equals the direct four-weight formula bit for bit, inside and at the border") {
+  const int w = 80, h = 60;
+  ums::test::GreyImage img(w, h);
+  std::uint32_t s = 88172645u;
+  for (auto& p : img.pixels) {
+    s ^= s << 13;
+    s ^= s >> 17;
+    s ^= s << 5;
+    p = static_cast<std::uint8_t>(s >> 24);
+  }
+  const ums::ImageView v = img.view();
+  float out[33 * 33];
+  int mismatches = 0, samples = 0;
+  const int sizes[4] = {9, 15, 17, 33};
+  // Interior origins, plus ones hanging over each edge (the clamped path).
+  const float origins[6][2] = {{3.25f, 4.75f}, {20.5f, 11.125f}, {40.9f, 20.01f}, {-2.3f, 5.5f}, {70.2f, 40.6f}, {10.0f, -1.5f}};
+  for (int n : sizes) {
+    for (const auto& o : origins) {
+      ums::sample_patch_bilinear(v, o[0], o[1], n, out);
+      const float fx0 = std::floor(o[0]), fy0 = std::floor(o[1]);
+      const float ax = o[0] - fx0, ay = o[1] - fy0;
+      const float w00 = (1.0f - ax) * (1.0f - ay), w01 = ax * (1.0f - ay), w10 = (1.0f - ax) * ay, w11 = ax * ay;
+      for (int j = 0; j < n; ++j) {
+        for (int i = 0; i < n; ++i) {
+          auto px = [&](int x, int y) {
+            return static_cast<float>(v.row(std::clamp(y, 0, h - 1))[std::clamp(x, 0, w - 1)]);
+          };
+          const int x0 = static_cast<int>(fx0) + i, y0 = static_cast<int>(fy0) + j;
+          const float ref = w00 * px(x0, y0) + w01 * px(x0 + 1, y0) + w10 * px(x0, y0 + 1) + w11 * px(x0 + 1, y0 + 1);
+          mismatches += out[j * n + i] != ref ? 1 : 0;
+          ++samples;
+        }
+      }
+    }
+  }
+  INFO(samples << " samples");
+  CHECK(mismatches == 0);
 }
