@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Instructions per frame (valgrind callgrind): the machine-independent cost figure to compare
 # commits and to estimate ARM time. Fixed synthetic sequence: V1_01's profile from 20 s, 3 s,
-# seed 1 (61 stereo pairs). Prints instructions per frame for the front end and for the whole
-# pipeline (front end + IMU handling + bookkeeping; the back end joins when it exists).
+# seed 1 (61 stereo pairs). Prints instructions per frame for the front end, the back end (the
+# estimator: IMU intake, window, solves, marginalization) and the whole pipeline (both + bookkeeping).
 # Usage: scripts/instructions.sh [build_dir]   (default build/host, built by scripts/demo.sh)
 set -euo pipefail
 
@@ -24,7 +24,10 @@ count() {  # toggle-collect pattern -> total instructions inside it
 }
 
 frontend=$(count 'ums::Frontend::process*')
+backend_frames=$(count 'ums::Estimator::add_frame*')
+backend_imu=$(count 'ums::Estimator::add_imu*')
 total=$(count 'ums::cli::ReplayPipeline::on_*')
 frames=$(grep -o '"frames": [0-9]*' "$work/out/stats.json" | awk '{print $2}')
-printf 'frames %d\nfrontend %.1f M instructions/frame\ntotal %.1f M instructions/frame\n' "$frames" \
-  "$(echo "$frontend / $frames / 1000000" | bc -l)" "$(echo "$total / $frames / 1000000" | bc -l)"
+printf 'frames %d\nfrontend %.1f M instructions/frame\nbackend %.1f M instructions/frame\ntotal %.1f M instructions/frame\n' \
+  "$frames" "$(echo "$frontend / $frames / 1000000" | bc -l)" \
+  "$(echo "($backend_frames + $backend_imu) / $frames / 1000000" | bc -l)" "$(echo "$total / $frames / 1000000" | bc -l)"

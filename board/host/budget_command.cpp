@@ -13,6 +13,7 @@
 #include "board/host/commands.hpp"
 #include "board/host/replay_pipeline.hpp"
 #include "core/common/capacity.hpp"
+#include "core/estimator/estimator.hpp"
 #include "core/frontend/frontend.hpp"
 #include "core/imu/preintegration.hpp"
 #include "hal/d455/nominal_calibration.hpp"
@@ -81,11 +82,14 @@ int run_budget(const std::vector<std::string>& argv, std::ostream& out, std::ost
                   "pyramids of both cameras, detector buffers, tracks"});
   rows.push_back({"frame_features", sizeof(FrameFeatures),
                   std::to_string(capacity::kMaxFeaturesPerCamera) + " features"});
-  rows.push_back({"preintegration_window", capacity::kWindowSize * sizeof(Preintegration),
-                  std::to_string(capacity::kWindowSize) + " intervals x " +
-                      std::to_string(capacity::kMaxImuSamplesBetweenFrames) + " samples"});
-  rows.push_back({"solver_problem", measure([] { return std::make_unique<solver::Problem>(); }),
-                  "blocks, residuals, Schur and reduced-system storage"});
+  EstimatorOptions estimator_options;
+  estimator_options.focal_px = config.rig.cam[0].fx > 0.0 ? config.rig.cam[0].fx : estimator_options.focal_px;
+  rows.push_back({"estimator", measure([&] { return std::make_unique<Estimator>(estimator_options, config.rig); }),
+                  std::to_string(capacity::kWindowSize + 1) + " frame slots (IMU intervals of " +
+                      std::to_string(capacity::kMaxImuSamplesBetweenFrames) + " samples), " +
+                      std::to_string(capacity::kMaxLandmarks) + " landmarks, " +
+                      std::to_string(capacity::kMaxVisualResiduals) + " residuals, solver problem (" +
+                      kib(sizeof(solver::Problem)) + ") and 2 priors"});
   rows.push_back({"stage_timers", sizeof(StageTimes),
                   std::to_string(StageTimes::kWindow) + " samples x " +
                       std::to_string(static_cast<int>(Stage::kCount)) + " stages"});

@@ -699,12 +699,18 @@ bool Estimator::marginalize_oldest() {
     const Landmark& l = landmarks_[selected_[i]];
     if (l.find_obs(s0) >= 0) ids[n++] = block_of_landmark_[selected_[i]];
   }
-  const solver::SolverStatus st = problem_->marginalize(ids, n, prior_next_.get());
-  if (st != solver::SolverStatus::kOk || prior_next_->num_blocks() > 64) {
+  return adopt_marginalization(*problem_, ids, n);
+}
+
+bool Estimator::adopt_marginalization(solver::Problem& problem, const int* ids, int n) {
+  const solver::SolverStatus st = problem.marginalize(ids, n, prior_next_.get());
+  if (st != solver::SolverStatus::kOk) {
+    // The information is lost, the window goes on: counted, never fatal.
     ++stats_.marginalization_failures;
     prior_->clear();
     return false;
   }
+  // The prior's blocks are named by this problem's ids: keep what they are (kind, frame slot).
   for (int i = 0; i < prior_next_->num_blocks(); ++i) {
     const int id = prior_next_->block(i).source_id;
     prior_kind_[i] = block_kind_[id];
@@ -739,19 +745,7 @@ bool Estimator::marginalize_prior_blocks(int slot) {
   int n = 0;
   for (int i = 0; i < prior_->num_blocks(); ++i)
     if ((prior_kind_[i] == kKindPose || prior_kind_[i] == kKindSpeedBias) && prior_slot_[i] == slot) marg[n++] = ids[i];
-  const solver::SolverStatus st = P.marginalize(marg, n, prior_next_.get());
-  if (st != solver::SolverStatus::kOk) {
-    ++stats_.marginalization_failures;
-    prior_->clear();
-    return false;
-  }
-  for (int i = 0; i < prior_next_->num_blocks(); ++i) {
-    const int id = prior_next_->block(i).source_id;
-    prior_kind_[i] = block_kind_[id];
-    prior_slot_[i] = block_slot_[id];
-  }
-  std::swap(prior_, prior_next_);
-  return true;
+  return adopt_marginalization(P, marg, n);
 }
 
 void Estimator::slide_window(EstimatorTiming* timing) {

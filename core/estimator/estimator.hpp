@@ -40,6 +40,7 @@
 #include "core/imu/preintegration.hpp"
 #include "core/imu/propagation.hpp"
 #include "core/imu/standstill.hpp"
+#include "solver/capacity.hpp"
 
 namespace ums {
 namespace solver {
@@ -209,6 +210,7 @@ class Estimator {
   void rotate_world(const Eigen::Matrix3d& R, const Eigen::Vector3d& pivot);
   bool marginalize_oldest();
   bool marginalize_prior_blocks(int slot);
+  bool adopt_marginalization(solver::Problem& problem, const int* ids, int n);
   void update_imu_factors();
 
   EstimatorOptions options_;
@@ -250,8 +252,8 @@ class Estimator {
   std::unique_ptr<solver::Problem> problem_;
   std::unique_ptr<solver::MarginalPrior> prior_;
   std::unique_ptr<solver::MarginalPrior> prior_next_;
-  std::uint8_t prior_kind_[64] = {};   // 0 pose, 1 speed-bias, 2 extrinsic
-  std::int8_t prior_slot_[64] = {};
+  std::uint8_t prior_kind_[solver::capacity::kMaxReducedBlocks] = {};  // 0 pose, 1 speed-bias, 2 extrinsic
+  std::int8_t prior_slot_[solver::capacity::kMaxReducedBlocks] = {};   // frame slot (extrinsic: camera)
   std::unique_ptr<BearingResidual[]> visual_;
   int n_visual_ = 0;
   std::unique_ptr<int[]> visual_landmark_;          // landmark pool index of each residual

@@ -67,7 +67,7 @@ TEST_CASE("umsvins budget measures every component it lists", "[cli]") {
   INFO(r.err);
   REQUIRE(r.code == kExitOk);
   CHECK(r.out.find("frontend") != std::string::npos);
-  CHECK(r.out.find("solver_problem") != std::string::npos);
+  CHECK(r.out.find("estimator") != std::string::npos);
   // Two 752x480 frame buffers of the replay, exactly.
   CHECK(r.out.find("replay_images                721920 B") != std::string::npos);
   const std::size_t at = r.out.find("replay pipeline");
