@@ -241,7 +241,8 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
 
   out << "replay: " << summary.frames << " stereo pairs, " << summary.imu_samples
       << " IMU samples, " << summary.duration_s << " s of data in " << wall_s << " s ("
-      << summary.processing_s << " s in the pipeline)\n";
+      << summary.processing_s << " s in the pipeline, " << summary.processing_cpu_s << " s of CPU; "
+      << (summary.duration_s > 0.0 ? summary.processing_cpu_s / summary.duration_s : 0.0) << " of real time)\n";
   if (counters.unpaired_left + counters.unpaired_right + counters.unreadable_images > 0) {
     out << "replay: skipped " << counters.unpaired_left << " unpaired left, "
         << counters.unpaired_right << " unpaired right, " << counters.unreadable_images

@@ -31,6 +31,7 @@ struct ReplaySummary {
   std::uint64_t imu_samples = 0;
   double duration_s = 0.0;    // data time from the first to the last measurement
   double processing_s = 0.0;  // time spent inside the pipeline (excludes reading and decoding)
+  double processing_cpu_s = 0.0;  // CPU time of the pipeline's thread inside it (one core's work)
   std::uint64_t heap_allocs_steady_state = 0;
   // Front end, averaged over processed frames.
   double mean_3d = 0.0;

@@ -35,9 +35,11 @@ struct Pose {
   Eigen::Matrix3d R;
 };
 
+// The solver keeps quaternions unit (its plus is q * Exp(d), renormalized), so no normalization
+// here: this runs for every residual at every linearization.
 Pose read_pose(const double* x) {
   const Eigen::Map<const Eigen::Quaterniond> q(x + 3);
-  return {Eigen::Vector3d(x[0], x[1], x[2]), q.normalized().toRotationMatrix()};
+  return {Eigen::Vector3d(x[0], x[1], x[2]), q.toRotationMatrix()};
 }
 
 }  // namespace
@@ -86,38 +88,48 @@ bool BearingResidual::evaluate(const double* const* parameters, double* residual
   const Eigen::Matrix<double, 2, 3> D =
       (weight_ / n) * tangent_.transpose() * (Eigen::Matrix3d::Identity() - u * u.transpose());
   const Eigen::Matrix3d R_ct_bt = ext_t.R.transpose();
-  // M maps a vector of host body coordinates into target camera coordinates.
-  const Eigen::Matrix3d M = two_frames ? Eigen::Matrix3d(R_ct_bt * pose_t.R.transpose() * pose_h.R) : R_ct_bt;
 
+  const bool want_h = two_frames && jacobians[0].wanted();
+  const bool want_t = two_frames && jacobians[1].wanted();
+  const bool want_eh = jacobians[k_ext_h].wanted();
+  const bool want_et = jacobians[k_ext_t].wanted();
+  const bool want_rho = jacobians[k_rho].wanted();
+  // M maps a vector of host body coordinates into target camera coordinates.
+  Eigen::Matrix3d R_ct_w = R_ct_bt;
+  Eigen::Matrix3d M = R_ct_bt;
   if (two_frames) {
-    if (jacobians[0].wanted()) {
-      Eigen::Matrix<double, 3, 6> d;
-      d.leftCols<3>() = R_ct_bt * pose_t.R.transpose();
-      d.rightCols<3>() = -M * so3::hat(P_bh);
-      solver::jacobian_map<2, 6>(jacobians[0]) = D * d;
-    }
-    if (jacobians[1].wanted()) {
-      Eigen::Matrix<double, 3, 6> d;
-      d.leftCols<3>() = -R_ct_bt * pose_t.R.transpose();
-      d.rightCols<3>() = R_ct_bt * so3::hat(P_bt);
-      solver::jacobian_map<2, 6>(jacobians[1]) = D * d;
+    R_ct_w = R_ct_bt * pose_t.R.transpose();
+    if (want_h || want_eh || want_rho) M = R_ct_w * pose_h.R;
+  }
+  if (want_h) {
+    Eigen::Matrix<double, 3, 6> d;
+    d.leftCols<3>() = R_ct_w;
+    d.rightCols<3>() = -M * so3::hat(P_bh);
+    solver::jacobian_map<2, 6>(jacobians[0]) = D * d;
+  }
+  if (want_t) {
+    Eigen::Matrix<double, 3, 6> d;
+    d.leftCols<3>() = -R_ct_w;
+    d.rightCols<3>() = R_ct_bt * so3::hat(P_bt);
+    solver::jacobian_map<2, 6>(jacobians[1]) = D * d;
+  }
+  // Extrinsics (constant unless estimated): host side moves P_bh, target side the target camera.
+  if (want_eh || want_et) {
+    Eigen::Matrix<double, 3, 6> d_h;
+    d_h.leftCols<3>() = M;
+    d_h.rightCols<3>() = -M * ext_h.R * so3::hat(P_ch);
+    Eigen::Matrix<double, 3, 6> d_t;
+    d_t.leftCols<3>() = -R_ct_bt;
+    d_t.rightCols<3>() = so3::hat(P_ct);
+    if (k_ext_h == k_ext_t) {
+      solver::jacobian_map<2, 6>(jacobians[k_ext_h]) = D * (d_h + d_t);
+    } else {
+      if (want_eh) solver::jacobian_map<2, 6>(jacobians[k_ext_h]) = D * d_h;
+      if (want_et) solver::jacobian_map<2, 6>(jacobians[k_ext_t]) = D * d_t;
     }
   }
-  // Extrinsics: host side moves P_bh, target side moves the target camera.
-  Eigen::Matrix<double, 3, 6> d_h;
-  d_h.leftCols<3>() = M;
-  d_h.rightCols<3>() = -M * ext_h.R * so3::hat(P_ch);
-  Eigen::Matrix<double, 3, 6> d_t;
-  d_t.leftCols<3>() = -R_ct_bt;
-  d_t.rightCols<3>() = so3::hat(P_ct);
-  if (k_ext_h == k_ext_t) {
-    if (jacobians[k_ext_h].wanted()) solver::jacobian_map<2, 6>(jacobians[k_ext_h]) = D * (d_h + d_t);
-  } else {
-    if (jacobians[k_ext_h].wanted()) solver::jacobian_map<2, 6>(jacobians[k_ext_h]) = D * d_h;
-    if (jacobians[k_ext_t].wanted()) solver::jacobian_map<2, 6>(jacobians[k_ext_t]) = D * d_t;
-  }
-  if (jacobians[k_rho].wanted()) {
-    const Eigen::Vector3d d_rho = M * ext_h.R * (-b_host_ / (rho * rho));
+  if (want_rho) {
+    const Eigen::Vector3d d_rho = M * (ext_h.R * (-b_host_ / (rho * rho)));
     solver::jacobian_map<2, 1>(jacobians[k_rho]) = D * d_rho;
   }
   return true;

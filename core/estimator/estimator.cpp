@@ -935,7 +935,7 @@ bool Estimator::try_alignment(FrameState& newest) {
   spec.groups = kAllGroups;
   spec.imu = true;
   spec.prior = false;
-  constexpr int kAlignIterations = 12;
+  constexpr int kAlignIterations = 8;
   const Eigen::Matrix3d R_perturb =
       Eigen::AngleAxisd(options_.align_perturb_deg * M_PI / 180.0, Eigen::Vector3d::UnitX()).toRotationMatrix();
   rotate_world(R_perturb, pivot);
@@ -1006,14 +1006,20 @@ void Estimator::frame_vo(FrameState& f) {
     return;
   }
   triangulate_all(-1);
-  visual_bundle_adjustment(options_.max_iterations_stage);
-  // Round 2 on the cleaned set.
+  // Round 1, then round 2 on the cleaned set when something was removed or round 1 was cut short.
   BuildSpec spec;
   spec.groups = kAllGroups;
   spec.imu = false;
   spec.prior = false;
   spec.fix_first_pose = true;
-  solve(spec, std::max(1, options_.max_iterations_round2), options_.round2_time_s);
+  bool converged = false;
+  solve(spec, options_.max_iterations_stage, 1e9, &converged);
+  const int outliers = mark_outliers();
+  if (outliers > 0) compact_landmarks();
+  if (outliers > 0 || !converged) {
+    solve(spec, std::max(1, options_.max_iterations_round2), options_.round2_time_s);
+    ++stats_.second_rounds;
+  }
   const FrameState& prev2 = frame_at(n_ - 2);
   if (dt > 0.0) vo_velocity_ = (Eigen::Map<const Eigen::Vector3d>(f.pose) - Eigen::Map<const Eigen::Vector3d>(prev2.pose)) / dt;
   Eigen::Map<Eigen::Vector3d>(f.sb) = vo_velocity_;

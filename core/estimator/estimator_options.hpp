@@ -37,7 +37,7 @@ struct EstimatorOptions {
   double stage_agree_m = 0.05;            // m, stereo vs mono-stereo newest pose agreement
   double stage_agree_deg = 1.0;           // deg
   int max_iterations_stage = 3;           // LM iterations of the first-round solve that is kept
-  int max_iterations_stage_a = 2;         // LM iterations of the stereo-only check solve
+  int max_iterations_stage_a = 1;         // LM iterations of the stereo-only check solve
   double share_2d = 0.3;                  // 1, share of the landmark budget offered to 2D features
   int max_iterations_round2 = 4;          // LM iterations of the second round
   double round2_time_s = 0.010;           // s, time budget of the second round (paper: bounded)
@@ -52,7 +52,7 @@ struct EstimatorOptions {
   double align_perturb_deg = 3.0;         // deg, tilt of the second loosely coupled BA's start
   double align_agree_deg = 1.0;           // deg, the two loosely coupled BAs must agree on gravity
   double align_agree_ba_m_s2 = 0.1;       // m/s^2, ... and on the accelerometer bias
-  int align_retry_frames = 5;             // frames between alignment attempts in VO
+  int align_retry_frames = 10;             // frames between alignment attempts in VO
   double init_bias_sigma_ba = 0.2;        // m/s^2, prior on b_a at initialization
   double init_bias_sigma_bg = 0.02;       // rad/s, prior on b_g at initialization
 

@@ -44,9 +44,10 @@ Eigen::Matrix<double, 3, 2> tangent_basis(const Eigen::Vector3d& b) {
   return B;
 }
 
-// Angular error (rad) of a match at T_w_b; negative when the point is behind the camera.
-double match_error(const PnpMatch& m, const Eigen::Isometry3d& T_w_b, const Eigen::Isometry3d* T_b_c) {
-  const Eigen::Vector3d P_c = T_b_c[m.cam].inverse() * (T_w_b.inverse() * m.p_w);
+// Angular error (rad) of a match; T_c_w[cam] = (T_w_b T_b_c[cam])^-1. Negative when the point is
+// behind the camera.
+double match_error(const PnpMatch& m, const Eigen::Isometry3d* T_c_w) {
+  const Eigen::Vector3d P_c = T_c_w[m.cam] * m.p_w;
   const double n = P_c.norm();
   if (!(n > 1e-9) || P_c.dot(m.bearing) <= 0.0) return -1.0;
   return (P_c / n - m.bearing).norm();
@@ -133,8 +134,9 @@ PnpResult solve_pnp(const PnpMatch* matches, int n, const Eigen::Isometry3d* T_b
       if (!gauss_newton(matches, sample, s, T_b_c, options.gn_iterations, &T)) continue;
     }
     int inliers = 0;
+    const Eigen::Isometry3d T_c_w[2] = {(T * T_b_c[0]).inverse(), (T * T_b_c[1]).inverse()};
     for (int k = 0; k < n; ++k) {
-      const double e = match_error(matches[k], T, T_b_c);
+      const double e = match_error(matches[k], T_c_w);
       if (e >= 0.0 && e < options.inlier_rad) ++inliers;
     }
     if (inliers > best_inliers) {
@@ -147,8 +149,9 @@ PnpResult solve_pnp(const PnpMatch* matches, int n, const Eigen::Isometry3d* T_b
   // Refine on the inliers, re-select once with the refined pose.
   for (int pass = 0; pass < 2; ++pass) {
     int m = 0;
+    const Eigen::Isometry3d T_c_w[2] = {(best * T_b_c[0]).inverse(), (best * T_b_c[1]).inverse()};
     for (int k = 0; k < n; ++k) {
-      const double e = match_error(matches[k], best, T_b_c);
+      const double e = match_error(matches[k], T_c_w);
       if (e >= 0.0 && e < options.inlier_rad) idx[m++] = k;
     }
     if (m < options.min_inliers) return out;
@@ -158,8 +161,9 @@ PnpResult solve_pnp(const PnpMatch* matches, int n, const Eigen::Isometry3d* T_b
   }
   double sum_sq = 0.0;
   int inliers = 0;
+  const Eigen::Isometry3d T_c_w[2] = {(best * T_b_c[0]).inverse(), (best * T_b_c[1]).inverse()};
   for (int k = 0; k < n; ++k) {
-    const double e = match_error(matches[k], best, T_b_c);
+    const double e = match_error(matches[k], T_c_w);
     const bool in = e >= 0.0 && e < options.inlier_rad;
     if (inlier_mask != nullptr) inlier_mask[k] = in ? 1 : 0;
     if (in) {
