@@ -103,7 +103,9 @@ for change in stats.get("modes", []) or []:
     else:
         see(change)
 modes = " > ".join(seen) if seen else "-"
-print("| %s | %s | %s | %s | %s | %s |" % (flight, scenario, ate, share, init_text, modes))
+cpu, dur = stats.get("processing_cpu_s"), stats.get("duration_s")
+load = "%.3f" % (cpu / dur) if isinstance(cpu, (int, float)) and isinstance(dur, (int, float)) and dur > 0 else "-"
+print("| %s | %s | %s | %s | %s | %s | %s |" % (flight, scenario, ate, share, init_text, modes, load))
 PY
 }
 
@@ -142,8 +144,8 @@ table="$work/results_table.md"
        "with \`scripts/results.sh$([[ $quick -eq 1 ]] && echo ' --quick')$([[ -n "$duration_override" ]] && echo " --duration $duration_override")\`: simulated ${duration} s cuts," \
        "seed 1, ATE RMSE after SE(3) alignment."
   echo
-  echo "| flight (simulated) | scenario | ATE RMSE [m] | frames with pose [%] | init time [s] | modes seen |"
-  echo "| --- | --- | --- | --- | --- | --- |"
+  echo "| flight (simulated) | scenario | ATE RMSE [m] | frames with pose [%] | init time [s] | modes seen | CPU / real time |"
+  echo "| --- | --- | --- | --- | --- | --- | --- |"
   for f in $nominal_flights; do run_one "$f" nominal; done
   for f in $scenario_flights; do
     for s in $scenarios; do run_one "$f" "$s"; done
