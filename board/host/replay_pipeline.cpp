@@ -271,6 +271,7 @@ void ReplayPipeline::write_stats(JsonWriter& w) const {
     w.value("landmarks", e.drops_landmarks)
         .value("visual_residuals", e.drops_residuals)
         .value("imu_interval", e.drops_imu)
+        .value("estimator_frames_out_of_order", e.frames_out_of_order)
         .value("mode_changes", e.mode_changes_dropped);
   }
   w.end_object();

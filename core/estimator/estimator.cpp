@@ -1097,6 +1097,15 @@ void Estimator::add_frame(const FrameFeatures& ff, EstimatorOutput* out, Estimat
   EstimatorTiming local_timing;
   if (timing == nullptr) timing = &local_timing;
   *timing = EstimatorTiming{};
+  if (stats_.frames > 0 && ff.t_ns <= last_output_.t_ns) {
+    // A source bug (sources order and de-duplicate): counted, never processed.
+    ++stats_.frames_out_of_order;
+    if (out != nullptr) {
+      *out = last_output_;
+      out->valid = false;
+    }
+    return;
+  }
   ++stats_.frames;
   if (stats_.first_frame_t_ns < 0) stats_.first_frame_t_ns = ff.t_ns;
   const std::int64_t td_ns = static_cast<std::int64_t>(std::llround(rig_.td_s * 1e9));

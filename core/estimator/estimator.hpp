@@ -125,6 +125,7 @@ struct EstimatorStats {
   std::uint64_t drops_residuals = 0;    // observations not used: residual pool full
   std::uint64_t drops_imu = 0;          // IMU samples not integrated: interval buffer full
   std::uint64_t imu_out_of_order = 0;
+  std::uint64_t frames_out_of_order = 0;  // frames not after the previous one: not processed
 };
 
 class Estimator {

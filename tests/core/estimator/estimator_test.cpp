@@ -96,3 +96,27 @@ TEST_CASE("estimator: invalid options are refused at start-up", "[estimator]") {
   o.sigma_px = 0.0;
   CHECK_THROWS_AS(ums::Estimator(o, rig), std::invalid_argument);
 }
+
+TEST_CASE("estimator: a frame not after the previous one is counted and not processed", "[estimator]") {
+  ums::RigCalibration rig;
+  rig.cam[0].fx = rig.cam[0].fy = 460.0;
+  rig.cam[1] = rig.cam[0];
+  ums::Estimator est(ums::EstimatorOptions(), rig);
+  for (int k = 0; k < 100; ++k) {
+    ums::ImuSample s;
+    s.t_ns = 1'000'000'000 + k * 5'000'000;
+    s.accel_m_s2 = Eigen::Vector3d(0.0, 0.0, 9.81);
+    est.add_imu(s);
+  }
+  auto ff = std::make_unique<ums::FrameFeatures>();
+  ff->t_ns = 1'400'000'000;
+  ums::EstimatorOutput out;
+  est.add_frame(*ff, &out, nullptr);
+  CHECK(out.valid);  // attitude from gravity: IMU_ONLY pose
+  CHECK(out.mode == ums::EstimatorMode::kImuOnly);
+  CHECK(std::abs(out.q_w_b.angularDistance(Eigen::Quaterniond::Identity())) < 1e-6);  // level, z up
+  est.add_frame(*ff, &out, nullptr);  // same stamp again
+  CHECK_FALSE(out.valid);
+  CHECK(est.stats().frames == 1);
+  CHECK(est.stats().frames_out_of_order == 1);
+}
