@@ -301,6 +301,7 @@ void ReplayPipeline::write_estimator_stats(JsonWriter& w) const {
       .value("frames_vo", e.frames_in_mode[1])
       .value("frames_vio", e.frames_in_mode[2])
       .value("poses_written", poses_written_)
+      .value("frames_without_pose", e.frames_without_pose)
       .value("solves", e.solves)
       .value("mean_landmarks_in_solve", e.frames_solved > 0 ? e.sum_landmarks_in_solve / static_cast<double>(e.frames_solved) : 0.0, 4)
       .value("mean_2d_in_solve", e.frames_solved > 0 ? e.sum_2d_in_solve / static_cast<double>(e.frames_solved) : 0.0, 4)

@@ -160,7 +160,7 @@ void Estimator::add_imu(const ImuSample& sample) {
 }
 
 bool Estimator::imu_rate_state(NavState* state) const {
-  if (!nav_.initialized()) return false;
+  if (!nav_.initialized() || (mode_ == EstimatorMode::kImuOnly && !velocity_known_)) return false;
   *state = nav_.state();
   return true;
 }
@@ -1124,6 +1124,7 @@ void Estimator::add_frame(const FrameFeatures& ff, EstimatorOutput* out, Estimat
   // Initial state of the new frame.
   if (mode_ == EstimatorMode::kImuOnly || n_ == 0) {
     if (f.still && mode_ == EstimatorMode::kImuOnly) {
+      velocity_known_ = true;
       // Hold still when still: zero velocity, gyro bias from the rest, attitude re-levelled.
       NavState s = nav_.state();
       const Eigen::Vector3d up_w = s.q_w_b * sr.mean_accel_m_s2;
@@ -1206,7 +1207,12 @@ void Estimator::add_frame(const FrameFeatures& ff, EstimatorOutput* out, Estimat
   EstimatorOutput& o = last_output_;
   o.t_ns = ff.t_ns;
   o.mode = mode_;
-  o.valid = attitude_known_ || mode_ != EstimatorMode::kImuOnly;
+  // IMU_ONLY gives a pose only from a known state: at rest (zero velocity) or the last VO/VIO
+  // estimate. Started in motion without vision, the velocity is unknown and the propagated
+  // position would drift by metres within seconds: no pose rather than a false one.
+  if (mode_ != EstimatorMode::kImuOnly) velocity_known_ = true;
+  o.valid = mode_ != EstimatorMode::kImuOnly || (attitude_known_ && velocity_known_);
+  if (!o.valid) ++stats_.frames_without_pose;
   o.keyframe = f.keyframe;
   o.p_w_b = Eigen::Map<const Eigen::Vector3d>(f.pose);
   o.q_w_b = quat_of(f.pose).normalized();

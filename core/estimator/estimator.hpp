@@ -63,7 +63,7 @@ constexpr const char* to_string(EstimatorMode m) {
 struct EstimatorOutput {
   std::int64_t t_ns = 0;             // frame time, camera clock (the dataset's)
   EstimatorMode mode = EstimatorMode::kImuOnly;
-  bool valid = false;                // a pose exists (attitude known)
+  bool valid = false;                // a pose exists (attitude and velocity known)
   bool keyframe = false;
   Eigen::Vector3d p_w_b = Eigen::Vector3d::Zero();            // m
   Eigen::Quaterniond q_w_b = Eigen::Quaterniond::Identity();  // x,y,z,w in memory
@@ -125,7 +125,8 @@ struct EstimatorStats {
   std::uint64_t drops_residuals = 0;    // observations not used: residual pool full
   std::uint64_t drops_imu = 0;          // IMU samples not integrated: interval buffer full
   std::uint64_t imu_out_of_order = 0;
-  std::uint64_t frames_out_of_order = 0;  // frames not after the previous one: not processed
+  std::uint64_t frames_out_of_order = 0;
+  std::uint64_t frames_without_pose = 0;  // IMU_ONLY before the velocity was ever known  // frames not after the previous one: not processed
 };
 
 class Estimator {
@@ -246,6 +247,7 @@ class Estimator {
   std::unique_ptr<ImuSample[]> scratch_samples_;
   ImuPropagator nav_;
   bool attitude_known_ = false;
+  bool velocity_known_ = false;  // at rest once, or estimated by VO/VIO since the start
   StandstillResult last_still_;
   bool last_still_valid_ = false;
 

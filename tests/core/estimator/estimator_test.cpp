@@ -1,5 +1,6 @@
 #include "core/estimator/estimator.hpp"
 
+#include <cmath>
 #include <memory>
 
 #include <catch2/catch.hpp>
@@ -97,22 +98,46 @@ TEST_CASE("estimator: invalid options are refused at start-up", "[estimator]") {
   CHECK_THROWS_AS(ums::Estimator(o, rig), std::invalid_argument);
 }
 
+TEST_CASE("estimator: IMU_ONLY gives no pose while the velocity is unknown (moving, no vision)", "[estimator]") {
+  ums::RigCalibration rig;
+  rig.cam[0].fx = rig.cam[0].fy = 460.0;
+  rig.cam[1] = rig.cam[0];
+  ums::Estimator est(ums::EstimatorOptions(), rig);
+  // Accelerating and turning: never at rest, and no features (dark images).
+  for (int k = 0; k < 200; ++k) {
+    ums::ImuSample s;
+    s.t_ns = 1'000'000'000 + k * 5'000'000;
+    s.accel_m_s2 = Eigen::Vector3d(1.0 * std::sin(0.05 * k), 0.5, 9.81);
+    s.gyro_rad_s = Eigen::Vector3d(0.0, 0.0, 0.5 * std::cos(0.07 * k));
+    est.add_imu(s);
+  }
+  auto ff = std::make_unique<ums::FrameFeatures>();
+  ff->t_ns = 1'900'000'000;
+  ums::EstimatorOutput out;
+  est.add_frame(*ff, &out, nullptr);
+  CHECK_FALSE(out.valid);
+  CHECK(out.mode == ums::EstimatorMode::kImuOnly);
+  CHECK(est.stats().frames_without_pose == 1);
+  ums::NavState nav;
+  CHECK_FALSE(est.imu_rate_state(&nav));
+}
+
 TEST_CASE("estimator: a frame not after the previous one is counted and not processed", "[estimator]") {
   ums::RigCalibration rig;
   rig.cam[0].fx = rig.cam[0].fy = 460.0;
   rig.cam[1] = rig.cam[0];
   ums::Estimator est(ums::EstimatorOptions(), rig);
-  for (int k = 0; k < 100; ++k) {
+  for (int k = 0; k < 200; ++k) {
     ums::ImuSample s;
     s.t_ns = 1'000'000'000 + k * 5'000'000;
     s.accel_m_s2 = Eigen::Vector3d(0.0, 0.0, 9.81);
     est.add_imu(s);
   }
   auto ff = std::make_unique<ums::FrameFeatures>();
-  ff->t_ns = 1'400'000'000;
+  ff->t_ns = 1'900'000'000;
   ums::EstimatorOutput out;
   est.add_frame(*ff, &out, nullptr);
-  CHECK(out.valid);  // attitude from gravity: IMU_ONLY pose
+  CHECK(out.valid);  // at rest for 0.9 s: attitude from gravity, zero velocity: IMU_ONLY pose
   CHECK(out.mode == ums::EstimatorMode::kImuOnly);
   CHECK(std::abs(out.q_w_b.angularDistance(Eigen::Quaterniond::Identity())) < 1e-6);  // level, z up
   est.add_frame(*ff, &out, nullptr);  // same stamp again
