@@ -82,7 +82,8 @@ void ReplayPipeline::on_imu(const ImuSample& sample) {
     ++out_of_order_imu_;  // a source bug: count, never pass on
   } else {
     ImuSample clipped;
-    if (saturation_.apply(sample, &clipped)) ++summary_.saturated_samples;
+    const bool saturated = saturation_.apply(sample, &clipped);
+    if (saturated) ++summary_.saturated_samples;
     if (last_imu_t_ns_ >= 0 && summary_.frames > 0) {
       // Rotation hint only: raw gyro (bias of a few mrad/s moves KLT starts by < 0.1 px at 20 Hz).
       const double dt_s = static_cast<double>(sample.t_ns - last_imu_t_ns_) * 1e-9;
@@ -92,7 +93,7 @@ void ReplayPipeline::on_imu(const ImuSample& sample) {
     last_imu_t_ns_ = sample.t_ns;
     ++summary_.imu_samples;
     if (estimator_ != nullptr) {
-      estimator_->add_imu(clipped);
+      estimator_->add_imu(clipped, saturated);
       NavState nav;
       if (imu_poses_ != nullptr && summary_.frames > 0 && estimator_->imu_rate_state(&nav)) {
         write_pose(imu_poses_, sample.t_ns, nav.p_w_b, nav.q_w_b);
@@ -317,6 +318,7 @@ void ReplayPipeline::write_estimator_stats(JsonWriter& w) const {
       .value("align_attempts", e.align_attempts)
       .value("align_failures", e.align_failures)
       .value("align_disagreements", e.align_disagreements)
+      .value("imu_samples_held", e.imu_held)
       .value("still_frames", e.still_frames)
       .value("still_rejected_by_vision", e.still_rejected_by_vision)
       .value("resets", e.resets)

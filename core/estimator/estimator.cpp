@@ -132,10 +132,19 @@ std::size_t Estimator::footprint_bytes() const {
 // ---------------------------------------------------------------------------------------------
 // IMU
 
-void Estimator::add_imu(const ImuSample& sample) {
-  if (have_imu_ && sample.t_ns <= last_imu_.t_ns) {
+void Estimator::add_imu(const ImuSample& in, bool saturated) {
+  if (have_imu_ && in.t_ns <= last_imu_.t_ns) {
     ++stats_.imu_out_of_order;
     return;
+  }
+  // A sample the saturation element had to clip is an impulse, not motion: even clipped it
+  // carries up to one bound of false increment (30 m/s^2 for 5 ms is 0.15 m/s, over a hundred
+  // sigmas of a 50 ms interval), so the previous sample is held in its place.
+  ImuSample sample = in;
+  if (saturated && have_imu_) {
+    sample = last_imu_;
+    sample.t_ns = in.t_ns;
+    ++stats_.imu_held;
   }
   if (!have_imu_) {
     // Attitude from the first specific force: right at rest, a few degrees off in motion, and

@@ -125,6 +125,7 @@ struct EstimatorStats {
   std::uint64_t drops_residuals = 0;    // observations not used: residual pool full
   std::uint64_t drops_imu = 0;          // IMU samples not integrated: interval buffer full
   std::uint64_t imu_out_of_order = 0;
+  std::uint64_t imu_held = 0;             // saturated samples replaced by the previous one
   std::uint64_t frames_out_of_order = 0;
   std::uint64_t frames_without_pose = 0;  // IMU_ONLY before the velocity was ever known  // frames not after the previous one: not processed
 };
@@ -137,8 +138,9 @@ class Estimator {
   Estimator(const Estimator&) = delete;
   Estimator& operator=(const Estimator&) = delete;
 
-  // One IMU sample (time-ordered, after the saturation element). Allocates nothing.
-  void add_imu(const ImuSample& sample);
+  // One IMU sample (time-ordered, after the saturation element; saturated: the element clipped
+  // it, the previous sample is held instead). Allocates nothing.
+  void add_imu(const ImuSample& sample, bool saturated = false);
   // One frame of features; writes the optimized pose at this frame. Allocates nothing.
   void add_frame(const FrameFeatures& features, EstimatorOutput* out, EstimatorTiming* timing);
 
