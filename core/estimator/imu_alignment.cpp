@@ -45,6 +45,9 @@ Status estimate_gravity_velocity(const Eigen::Vector3d* p_w_b, const Eigen::Quat
   Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxDim, 1> rhs(dim);
   H.setZero();
   rhs.setZero();
+  // Per interval, kept for the fit's residual below: the rotated position delta and dt.
+  Eigen::Vector3d R_alpha[kMaxFrames];
+  double dt_s[kMaxFrames] = {};
   int used = 0;
   for (int k = 1; k < n; ++k) {
     if (pre[k] == nullptr || pre[k]->num_samples() < 2) continue;
@@ -58,7 +61,9 @@ Status estimate_gravity_velocity(const Eigen::Vector3d* p_w_b, const Eigen::Quat
     Eigen::Matrix<double, 6, 1> y;
     J.block<3, 3>(0, 0) = dt * Eigen::Matrix3d::Identity();
     J.block<3, 3>(0, 6) = 0.5 * dt * dt * Eigen::Matrix3d::Identity();
-    y.head<3>() = p_w_b[k] - p_w_b[k - 1] - R_i * alpha;
+    R_alpha[k] = R_i * alpha;
+    dt_s[k] = dt;
+    y.head<3>() = p_w_b[k] - p_w_b[k - 1] - R_alpha[k];
     J.block<3, 3>(3, 0) = -Eigen::Matrix3d::Identity();
     J.block<3, 3>(3, 3) = Eigen::Matrix3d::Identity();
     J.block<3, 3>(3, 6) = -dt * Eigen::Matrix3d::Identity();
@@ -84,12 +89,9 @@ Status estimate_gravity_velocity(const Eigen::Vector3d* p_w_b, const Eigen::Quat
   int rows = 0;
   for (int k = 1; k < n; ++k) {
     if (pre[k] == nullptr || pre[k]->num_samples() < 2) continue;
-    Eigen::Vector3d alpha, beta;
-    Eigen::Quaterniond gamma;
-    pre[k]->corrected(ba, bg, &alpha, &beta, &gamma);
-    const double dt = pre[k]->dt_s();
-    const Eigen::Vector3d e = p_w_b[k - 1] + out->v_w[k - 1] * dt + 0.5 * out->g_w * dt * dt +
-                              q_w_b[k - 1] * alpha - p_w_b[k];
+    const double dt = dt_s[k];
+    const Eigen::Vector3d e =
+        p_w_b[k - 1] + out->v_w[k - 1] * dt + 0.5 * out->g_w * dt * dt + R_alpha[k] - p_w_b[k];
     sum += e.squaredNorm();
     rows += 3;
   }

@@ -58,6 +58,24 @@ MicroRun run_micro() {
   return run;
 }
 
+// A rig with only focal lengths (identity extrinsics) and a 200 Hz IMU stream from t = 1 s.
+ums::RigCalibration bare_rig() {
+  ums::RigCalibration rig;
+  rig.cam[0].fx = rig.cam[0].fy = 460.0;
+  rig.cam[1] = rig.cam[0];
+  return rig;
+}
+
+template <typename Fill>
+void feed_imu(ums::Estimator* est, int n, Fill fill) {
+  for (int k = 0; k < n; ++k) {
+    ums::ImuSample s;
+    s.t_ns = 1'000'000'000 + static_cast<std::int64_t>(k) * 5'000'000;
+    fill(k, &s);
+    est->add_imu(s);
+  }
+}
+
 }  // namespace
 
 TEST_CASE("estimator on the real EuRoC micro sequence at rest: initializes within 1 s, holds still, 0 allocations", "[estimator]") {
@@ -99,18 +117,12 @@ TEST_CASE("estimator: invalid options are refused at start-up", "[estimator]") {
 }
 
 TEST_CASE("estimator: IMU_ONLY gives no pose while the velocity is unknown (moving, no vision)", "[estimator]") {
-  ums::RigCalibration rig;
-  rig.cam[0].fx = rig.cam[0].fy = 460.0;
-  rig.cam[1] = rig.cam[0];
-  ums::Estimator est(ums::EstimatorOptions(), rig);
+  ums::Estimator est(ums::EstimatorOptions(), bare_rig());
   // Accelerating and turning: never at rest, and no features (dark images).
-  for (int k = 0; k < 200; ++k) {
-    ums::ImuSample s;
-    s.t_ns = 1'000'000'000 + k * 5'000'000;
-    s.accel_m_s2 = Eigen::Vector3d(1.0 * std::sin(0.05 * k), 0.5, 9.81);
-    s.gyro_rad_s = Eigen::Vector3d(0.0, 0.0, 0.5 * std::cos(0.07 * k));
-    est.add_imu(s);
-  }
+  feed_imu(&est, 200, [](int k, ums::ImuSample* s) {
+    s->accel_m_s2 = Eigen::Vector3d(1.0 * std::sin(0.05 * k), 0.5, 9.81);
+    s->gyro_rad_s = Eigen::Vector3d(0.0, 0.0, 0.5 * std::cos(0.07 * k));
+  });
   auto ff = std::make_unique<ums::FrameFeatures>();
   ff->t_ns = 1'900'000'000;
   ums::EstimatorOutput out;
@@ -123,16 +135,8 @@ TEST_CASE("estimator: IMU_ONLY gives no pose while the velocity is unknown (movi
 }
 
 TEST_CASE("estimator: a frame not after the previous one is counted and not processed", "[estimator]") {
-  ums::RigCalibration rig;
-  rig.cam[0].fx = rig.cam[0].fy = 460.0;
-  rig.cam[1] = rig.cam[0];
-  ums::Estimator est(ums::EstimatorOptions(), rig);
-  for (int k = 0; k < 200; ++k) {
-    ums::ImuSample s;
-    s.t_ns = 1'000'000'000 + k * 5'000'000;
-    s.accel_m_s2 = Eigen::Vector3d(0.0, 0.0, 9.81);
-    est.add_imu(s);
-  }
+  ums::Estimator est(ums::EstimatorOptions(), bare_rig());
+  feed_imu(&est, 200, [](int, ums::ImuSample* s) { s->accel_m_s2 = Eigen::Vector3d(0.0, 0.0, 9.81); });  // at rest
   auto ff = std::make_unique<ums::FrameFeatures>();
   ff->t_ns = 1'900'000'000;
   ums::EstimatorOutput out;
