@@ -23,6 +23,7 @@
 #include <initializer_list>
 
 #include "solver/capacity.hpp"
+#include "solver/evaluation_callback.hpp"
 #include "solver/loss.hpp"
 #include "solver/manifold.hpp"
 #include "solver/marginal_prior.hpp"
@@ -79,6 +80,9 @@ class Problem {
   // A marginalization prior over ids[i] <-> prior->block(i) (same manifold and size; no eliminated
   // blocks). `prior` must stay valid and unchanged until clear().
   SolverStatus add_prior(const MarginalPrior* prior, const BlockId* ids);
+
+  // Runs before every evaluation pass (evaluation_callback.hpp); nullptr: none. Kept by clear().
+  void set_evaluation_callback(EvaluationCallback* callback) { callback_ = callback; }
 
   // ---- solving ----------------------------------------------------------------------------------
   // Minimizes from the current values. kInvalidInput if a value or the initial residuals/Jacobians
@@ -159,6 +163,7 @@ class Problem {
   PriorRef priors_[capacity::kMaxPriors];
   int num_priors_ = 0;
   bool prepared_ = false;
+  EvaluationCallback* callback_ = nullptr;
 
   // Structure built by prepare().
   int n_red_ = 0;

@@ -489,12 +489,79 @@ TEST_CASE("Iteration and time bounds stop the solve with their status", "[solver
   CHECK(problem->solve(opt, &sum) == SolverStatus::kMaxIterations);
   CHECK(sum.iterations == 2);
   CHECK(sum.final_cost < sum.initial_cost);
+  // The values returned are the last accepted step's, and the reported cost is theirs; the
+  // Jacobians at that point are not needed, so only the first step relinearized.
+  double cost_now = 0.0;
+  REQUIRE(problem->evaluate_cost(&cost_now) == SolverStatus::kOk);
+  CHECK(cost_now == Approx(sum.final_cost).epsilon(1e-12));
+  CHECK(sum.linearizations == 1 + std::min(sum.successful_steps, 1));
   w->reset();
   opt.max_iterations = 100;
   opt.max_time_s = 1e-9;  // s: exhausted before the first step
   CHECK(problem->solve(opt, &sum) == SolverStatus::kTimeBudget);
   CHECK(sum.iterations == 0);
   CHECK(sum.final_cost == sum.initial_cost);
+}
+
+// r = exp(x_seen) - 5, where x_seen is the block's value as copied by the evaluation callback: the
+// solve only reaches x = ln 5 if the callback runs before every evaluation pass.
+class SeenValue final : public EvaluationCallback {
+ public:
+  explicit SeenValue(const double* x) : x_(x) {}
+  void prepare_for_evaluation() override {
+    seen = *x_;
+    ++calls;
+  }
+  double seen = 0.0;
+  int calls = 0;
+
+ private:
+  const double* x_;
+};
+
+class ExpFromSeen final : public ResidualFunction {
+ public:
+  explicit ExpFromSeen(const SeenValue* v) : v_(v) {}
+  int num_residuals() const override { return 1; }
+  bool evaluate(const double* const*, double* r, const JacobianView* j) const override {
+    r[0] = std::exp(v_->seen) - 5.0;
+    if (j != nullptr && j[0].wanted()) j[0].data[0] = std::exp(v_->seen);
+    return true;
+  }
+
+ private:
+  const SeenValue* v_;
+};
+
+TEST_CASE("The evaluation callback runs before every pass of solve, cost and marginalization",
+          "[solver][problem]") {
+  double x = 0.0;
+  SeenValue seen(&x);
+  ExpFromSeen residual(&seen);
+  auto problem = std::make_unique<Problem>();
+  problem->set_evaluation_callback(&seen);
+  BlockId id = kInvalidBlock;
+  REQUIRE(problem->add_euclidean_block(&x, 1, &id) == SolverStatus::kOk);
+  REQUIRE(problem->add_residual(&residual, RobustLoss::trivial(), {id}) == SolverStatus::kOk);
+  SolverOptions opt;
+  opt.function_tolerance = 1e-12;
+  SolverSummary sum;
+  REQUIRE(usable(problem->solve(opt, &sum)));
+  CHECK(std::abs(x - std::log(5.0)) < 1e-6);
+  // One pass per linearization plus one per trial point (iterations).
+  CHECK(seen.calls >= sum.linearizations + sum.iterations);
+  x = 1.0;
+  const int before = seen.calls;
+  double cost = 0.0;
+  REQUIRE(problem->evaluate_cost(&cost) == SolverStatus::kOk);
+  CHECK(seen.calls > before);
+  CHECK(cost == Approx(0.5 * (std::exp(1.0) - 5.0) * (std::exp(1.0) - 5.0)).epsilon(1e-12));
+  x = 2.0;
+  auto prior = std::make_unique<MarginalPrior>();
+  const int before_marg = seen.calls;
+  problem->marginalize(&id, 1, prior.get());
+  CHECK(seen.calls > before_marg);
+  CHECK(seen.seen == 2.0);
 }
 
 TEST_CASE("Solve, cost evaluation and marginalization allocate nothing after set-up",
