@@ -10,6 +10,7 @@ namespace ums {
 
 void BearingResidual::set(Kind kind, bool same_camera, const Eigen::Vector3d& b_host,
                           const Eigen::Vector3d& b_target, double weight) {
+  cache_ = nullptr;
   kind_ = kind;
   same_camera_ = kind == Kind::kSameFrame ? false : same_camera;
   b_host_ = b_host.normalized();
@@ -21,6 +22,14 @@ void BearingResidual::set(Kind kind, bool same_camera, const Eigen::Vector3d& b_
   const Eigen::Vector3d t1 = (a - b_target_ * b_target_.dot(a)).normalized();
   tangent_.col(0) = t1;
   tangent_.col(1) = b_target_.cross(t1);
+}
+
+void BearingResidual::bind(RelativePoseCache* cache, int host_slot, int host_cam, int target_slot, int target_cam) {
+  cache_ = kind_ == Kind::kTwoFrames ? cache : nullptr;
+  host_slot_ = static_cast<std::int8_t>(host_slot);
+  host_cam_ = static_cast<std::int8_t>(host_cam);
+  target_slot_ = static_cast<std::int8_t>(target_slot);
+  target_cam_ = static_cast<std::int8_t>(target_cam);
 }
 
 int BearingResidual::num_blocks() const {
@@ -42,7 +51,62 @@ Pose read_pose(const double* x) {
   return {Eigen::Vector3d(x[0], x[1], x[2]), q.toRotationMatrix()};
 }
 
+// A * hat(v) for a 2x3 A, row by row: a^T hat(v) = (a x v)^T.
+Eigen::Matrix<double, 2, 3> times_hat(const Eigen::Matrix<double, 2, 3>& A, const Eigen::Vector3d& v) {
+  Eigen::Matrix<double, 2, 3> out;
+  out.row(0) = A.row(0).transpose().cross(v).transpose();
+  out.row(1) = A.row(1).transpose().cross(v).transpose();
+  return out;
+}
+
 }  // namespace
+
+// The residual from the point in the target camera and, when D is given, d r / d P_ct (2x3):
+// the projection onto the unit sphere, then onto the tangent plane.
+bool BearingResidual::project(const Eigen::Vector3d& P_ct, double* residuals, Eigen::Matrix<double, 2, 3>* D) const {
+  const double n = P_ct.norm();
+  if (!(n > 1e-9) || P_ct.dot(b_target_) <= 0.0) return false;
+  const Eigen::Vector3d u = P_ct / n;
+  Eigen::Map<Eigen::Vector2d> r(residuals);
+  r = weight_ * (tangent_.transpose() * (u - b_target_));
+  if (!r.allFinite()) return false;
+  // B^T (I - u u^T) = B^T - (B^T u) u^T.
+  if (D != nullptr) *D = (weight_ / n) * (tangent_.transpose() - (tangent_.transpose() * u) * u.transpose());
+  return true;
+}
+
+bool BearingResidual::evaluate_cached(const double* const* parameters, double* residuals,
+                                      const solver::JacobianView* jacobians) const {
+  const int k_rho = num_blocks() - 1;
+  const double rho = parameters[k_rho][0];
+  if (!(rho > 1e-6) || !std::isfinite(rho)) return false;
+  const RelativePoseCache::Pair& c = cache_->pair(host_slot_, host_cam_, target_slot_, target_cam_);
+  const Eigen::Vector3d P_ch = b_host_ / rho;
+  const Eigen::Vector3d P_ct = c.R_ct_ch * P_ch + c.p_ct_ch;
+  Eigen::Matrix<double, 2, 3> D;
+  if (!project(P_ct, residuals, jacobians == nullptr ? nullptr : &D)) return false;
+  if (jacobians == nullptr) return true;
+  // The same Jacobians as evaluate()'s, from the shared products (R_ct_bt = R_b_ct^T).
+  const bool want_h = jacobians[0].wanted(), want_t = jacobians[1].wanted();
+  if (want_h || want_t) {
+    const Eigen::Matrix<double, 2, 3> DR = D * c.R_ct_w;
+    if (want_h) {
+      const Eigen::Vector3d P_bh = c.R_b_ch * P_ch + c.p_b_ch;
+      auto J = solver::jacobian_map<2, 6>(jacobians[0]);
+      J.leftCols<3>() = DR;
+      J.rightCols<3>() = -times_hat(D * c.R_ct_bh, P_bh);
+    }
+    if (want_t) {
+      const Eigen::Vector3d P_bt = c.R_b_ct * P_ct + c.p_b_ct;
+      auto J = solver::jacobian_map<2, 6>(jacobians[1]);
+      J.leftCols<3>() = -DR;
+      J.rightCols<3>() = times_hat(D * c.R_b_ct.transpose(), P_bt);
+    }
+  }
+  if (jacobians[k_rho].wanted())
+    solver::jacobian_map<2, 1>(jacobians[k_rho]) = D * (c.R_ct_ch * (-b_host_ / (rho * rho)));
+  return true;
+}
 
 bool BearingResidual::error_rad(const double* const* parameters, double* error) const {
   double r[2];
@@ -57,6 +121,12 @@ bool BearingResidual::evaluate(const double* const* parameters, double* residual
   const int k_ext_h = two_frames ? 2 : 0;
   const int k_ext_t = two_frames ? (same_camera_ ? 2 : 3) : 1;
   const int k_rho = num_blocks() - 1;
+  if (cache_ != nullptr && parameters[0] == cache_->frame(host_slot_) &&
+      parameters[1] == cache_->frame(target_slot_) && parameters[k_ext_h] == cache_->extrinsic(host_cam_) &&
+      parameters[k_ext_t] == cache_->extrinsic(target_cam_) &&
+      (jacobians == nullptr || (!jacobians[k_ext_h].wanted() && !jacobians[k_ext_t].wanted()))) {
+    return evaluate_cached(parameters, residuals, jacobians);
+  }
 
   const double rho = parameters[k_rho][0];
   if (!(rho > 1e-6) || !std::isfinite(rho)) return false;
@@ -76,17 +146,10 @@ bool BearingResidual::evaluate(const double* const* parameters, double* residual
     P_bt = P_bh;
   }
   const Eigen::Vector3d P_ct = ext_t.R.transpose() * (P_bt - ext_t.p);
-  const double n = P_ct.norm();
-  if (!(n > 1e-9) || P_ct.dot(b_target_) <= 0.0) return false;
-  const Eigen::Vector3d u = P_ct / n;
-  Eigen::Map<Eigen::Vector2d> r(residuals);
-  r = weight_ * (tangent_.transpose() * (u - b_target_));
-  if (!r.allFinite()) return false;
+  Eigen::Matrix<double, 2, 3> D;
+  if (!project(P_ct, residuals, jacobians == nullptr ? nullptr : &D)) return false;
   if (jacobians == nullptr) return true;
 
-  // d r / d P_ct (2x3): projection onto the unit sphere, then onto the tangent plane.
-  const Eigen::Matrix<double, 2, 3> D =
-      (weight_ / n) * tangent_.transpose() * (Eigen::Matrix3d::Identity() - u * u.transpose());
   const Eigen::Matrix3d R_ct_bt = ext_t.R.transpose();
 
   const bool want_h = two_frames && jacobians[0].wanted();

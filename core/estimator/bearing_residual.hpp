@@ -15,8 +15,11 @@
 //   kSameFrame (stereo pair):      T_b_ch, T_b_ct, rho  (the body pose cancels)
 // Poses and extrinsics are 7-double pose blocks (docs/conventions.md); Jacobians are analytic.
 
+#include <cstdint>
+
 #include <Eigen/Core>
 
+#include "core/estimator/relative_pose_cache.hpp"
 #include "solver/residual.hpp"
 
 namespace ums {
@@ -30,6 +33,12 @@ class BearingResidual final : public solver::ResidualFunction {
   // (focal_px / sigma_px times beta), 1/rad.
   void set(Kind kind, bool same_camera, const Eigen::Vector3d& b_host, const Eigen::Vector3d& b_target,
            double weight);
+  // Optional, after set() (which unbinds): a kTwoFrames residual whose pose blocks are the cache's
+  // frame slots and extrinsics takes the shared products from it. Evaluation at other blocks, and
+  // Jacobians with respect to the extrinsics, use the residual's own products: results agree to
+  // rounding either way. The cache must be invalidated when blocks move (a solver with the cache as
+  // its evaluation callback does it); it is written during evaluate(): one solve at a time.
+  void bind(RelativePoseCache* cache, int host_slot, int host_cam, int target_slot, int target_cam);
 
   int num_residuals() const override { return 2; }
   int num_blocks() const;
@@ -40,6 +49,12 @@ class BearingResidual final : public solver::ResidualFunction {
   bool error_rad(const double* const* parameters, double* error) const;
 
  private:
+  bool evaluate_cached(const double* const* parameters, double* residuals,
+                       const solver::JacobianView* jacobians) const;
+  bool project(const Eigen::Vector3d& P_ct, double* residuals, Eigen::Matrix<double, 2, 3>* D) const;
+
+  RelativePoseCache* cache_ = nullptr;
+  std::int8_t host_slot_ = 0, host_cam_ = 0, target_slot_ = 0, target_cam_ = 0;
   Kind kind_ = Kind::kTwoFrames;
   bool same_camera_ = true;
   Eigen::Vector3d b_host_ = Eigen::Vector3d::UnitZ();

@@ -99,6 +99,11 @@ Estimator::Estimator(const EstimatorOptions& options, const RigCalibration& rig)
   prior_ = std::make_unique<solver::MarginalPrior>();
   prior_next_ = std::make_unique<solver::MarginalPrior>();
   visual_.reset(new BearingResidual[kMaxVisualResiduals]);
+  static_assert(kSlots <= RelativePoseCache::kMaxFrames, "the pose cache holds every frame slot");
+  pose_cache_ = std::make_unique<RelativePoseCache>();
+  for (int s = 0; s < kSlots; ++s) pose_cache_->bind_frame(s, slots_[s].pose);
+  for (int c = 0; c < 2; ++c) pose_cache_->bind_extrinsic(c, T_b_c_[c]);
+  problem_->set_evaluation_callback(pose_cache_.get());
   visual_landmark_.reset(new int[kMaxVisualResiduals]);
   selected_.reset(new std::int16_t[kMaxLandmarks]);
   candidates_.reset(new int[kMaxLandmarks]);
@@ -125,7 +130,7 @@ std::size_t Estimator::footprint_bytes() const {
   return sizeof(*this) + kSlots * sizeof(FrameState) + kMaxLandmarks * (sizeof(Landmark) + 2 + 4 + 2 + 2 + 4 + 4) +
          kRecentImu * sizeof(ImuSample) + kRecentImu * sizeof(ImuSample) +
          sizeof(solver::Problem) + 2 * sizeof(solver::MarginalPrior) +
-         kMaxVisualResiduals * (sizeof(BearingResidual) + sizeof(int)) +
+         kMaxVisualResiduals * (sizeof(BearingResidual) + sizeof(int)) + sizeof(RelativePoseCache) +
          solver::capacity::kMaxParameterBlocks * 2 + 2 * sizeof(Backup);
 }
 
@@ -517,6 +522,7 @@ int Estimator::build_problem(const BuildSpec& spec) {
         } else {
           const bool same_cam = cam == l.host_cam;
           r.set(BearingResidual::Kind::kTwoFrames, same_cam, l.b_host, b, w);
+          r.bind(pose_cache_.get(), h, l.host_cam, o.slot, cam);
           ids[nb++] = pose_id_[h];
           ids[nb++] = pose_id_[o.slot];
           ids[nb++] = ext_id_[l.host_cam];
@@ -601,6 +607,7 @@ int Estimator::mark_outliers() {
   // A landmark with any observation farther than outlier_px from its prediction is dropped (it
   // leaves the map; the front end keeps tracking it and it comes back as a new landmark).
   const double limit_rad = options_.outlier_px / options_.focal_px;
+  pose_cache_->invalidate();  // evaluated outside a solve: the window may have moved since
   int marked = 0;
   for (int i = 0; i < n_selected_; ++i) {
     Landmark& l = landmarks_[selected_[i]];
@@ -626,6 +633,7 @@ int Estimator::mark_outliers() {
         } else {
           const bool same_cam = cam == l.host_cam;
           r.set(BearingResidual::Kind::kTwoFrames, same_cam, l.b_host, b, 1.0);
+          r.bind(pose_cache_.get(), h, l.host_cam, o.slot, cam);
           params[nb++] = slots_[h].pose;
           params[nb++] = slots_[o.slot].pose;
           params[nb++] = T_b_c_[l.host_cam];

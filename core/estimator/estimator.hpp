@@ -34,6 +34,7 @@
 #include "core/estimator/geometry.hpp"
 #include "core/estimator/imu_factor.hpp"
 #include "core/estimator/landmark.hpp"
+#include "core/estimator/relative_pose_cache.hpp"
 #include "core/estimator/state_residuals.hpp"
 #include "core/frontend/frame_features.hpp"
 #include "core/frontend/keyframe_selector.hpp"
@@ -260,6 +261,7 @@ class Estimator {
   std::uint8_t prior_kind_[solver::capacity::kMaxReducedBlocks] = {};  // 0 pose, 1 speed-bias, 2 extrinsic
   std::int8_t prior_slot_[solver::capacity::kMaxReducedBlocks] = {};   // frame slot (extrinsic: camera)
   std::unique_ptr<BearingResidual[]> visual_;
+  std::unique_ptr<RelativePoseCache> pose_cache_;   // frame-to-frame products of visual_
   int n_visual_ = 0;
   std::unique_ptr<int[]> visual_landmark_;          // landmark pool index of each residual
   std::unique_ptr<std::int16_t[]> selected_;        // pool indices of landmarks in the problem

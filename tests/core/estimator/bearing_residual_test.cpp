@@ -2,6 +2,8 @@
 
 #include <catch2/catch.hpp>
 
+#include <memory>
+
 #include <Eigen/Geometry>
 
 #include "tests/core/estimator/jacobian_check.hpp"
@@ -95,4 +97,59 @@ TEST_CASE("bearing residual: 1 px of image error is 1 / sigma after whitening; b
   CHECK(e_rad * f_px == Approx(1.0).epsilon(1e-4));
   s.rho = -0.25;  // negative inverse depth: not a point in front of the host
   CHECK_FALSE(r.evaluate(p, res, nullptr));
+}
+
+TEST_CASE("bearing residual bound to the pose cache: same values and Jacobians, follows moved poses", "[estimator]") {
+  Scene s;
+  const double w = 460.0 / 1.5;
+  auto cache = std::make_unique<ums::RelativePoseCache>();
+  cache->bind_frame(3, s.pose_h);
+  cache->bind_frame(7, s.pose_t);
+  cache->bind_extrinsic(0, s.ext0);
+  cache->bind_extrinsic(1, s.ext1);
+  for (const bool same_cam : {true, false}) {
+    const double* ext_t = same_cam ? s.ext0 : s.ext1;
+    const Eigen::Vector3d noisy = (s.truth(false, ext_t) + Eigen::Vector3d(0.01, -0.02, 0.01)).normalized();
+    ums::BearingResidual plain, bound;
+    plain.set(ums::BearingResidual::Kind::kTwoFrames, same_cam, s.b_host, noisy, w);
+    bound.set(ums::BearingResidual::Kind::kTwoFrames, same_cam, s.b_host, noisy, w);
+    bound.bind(cache.get(), 3, 0, 7, same_cam ? 0 : 1);
+    const double* p4[] = {s.pose_h, s.pose_t, s.ext0, &s.rho};
+    const double* p5[] = {s.pose_h, s.pose_t, s.ext0, s.ext1, &s.rho};
+    const double* const* p = same_cam ? p4 : p5;
+    const int nb = same_cam ? 4 : 5;
+    for (int round = 0; round < 2; ++round) {
+      // Jacobians of the poses and the inverse depth only (the extrinsics are constant in a solve).
+      double jp[5][12] = {}, jb[5][12] = {};
+      ums::solver::JacobianView vp[5], vb[5];
+      for (int k = 0; k < nb; ++k) {
+        const bool want = k < 2 || k == nb - 1;
+        const int cols = k == nb - 1 ? 1 : 6;
+        vp[k] = {want ? jp[k] : nullptr, cols};
+        vb[k] = {want ? jb[k] : nullptr, cols};
+      }
+      double rp[2], rb[2];
+      REQUIRE(plain.evaluate(p, rp, vp));
+      REQUIRE(bound.evaluate(p, rb, vb));
+      CHECK(std::abs(rp[0] - rb[0]) < 1e-9);  // whitened units: 1e-9 of sigma
+      CHECK(std::abs(rp[1] - rb[1]) < 1e-9);
+      double worst = 0.0;
+      for (int k = 0; k < nb; ++k)
+        for (int i = 0; i < 12; ++i) worst = std::max(worst, std::abs(jp[k][i] - jb[k][i]));
+      CHECK(worst < 1e-8);
+      // Residual without Jacobians takes the same cached path.
+      REQUIRE(bound.evaluate(p, rb, nullptr));
+      CHECK(std::abs(rp[0] - rb[0]) < 1e-9);
+      // The solver moves the target pose in place and invalidates the cache (its callback).
+      s.pose_t[0] += 0.05;
+      s.pose_t[4] += 0.01;
+      Eigen::Map<Eigen::Quaterniond>(s.pose_t + 3).normalize();
+      cache->prepare_for_evaluation();
+      if (round == 0) {
+        double before[2];
+        REQUIRE(plain.evaluate(p, before, nullptr));
+        CHECK(std::hypot(before[0] - rp[0], before[1] - rp[1]) > 1.0);  // it did move the residual
+      }
+    }
+  }
 }
