@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Determinism across architectures (issue 8): a short synthetic flight, rendered once on the host,
-# replayed by the host binary and by the aarch64 binary under qemu-user (single-threaded replay);
-# the two trajectories must agree to 1e-6 m at every frame.
+# replayed by the host binary and by the aarch64 binary under qemu-user (single-threaded replay,
+# --deterministic: the solver's second round bounded by iterations, not by qemu's slow wall clock);
+# the two trajectories must agree to 1e-6 m at every frame. Needs UMS_PORTABLE_FP (the default).
 # Usage: scripts/determinism.sh [host_build_dir] [aarch64_build_dir]   (defaults build/host build/aarch64)
 set -euo pipefail
 
@@ -14,9 +15,9 @@ for b in "$host" "$arm"; do [[ -x "$b" ]] || { echo "determinism: $b not built" 
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
 "$host" simulate --trajectory "$shared/data/euroc/groundtruth/V101_GT.txt" --scenario nominal --seed 1 \
-  --duration 6 --out "$work/data" >/dev/null
-"$host" replay "$work/data" --out "$work/host" --quiet >/dev/null
-qemu-aarch64 -L / "$arm" replay "$work/data" --out "$work/aarch64" --quiet >/dev/null
+  --duration 6 --out "$work/data" --quiet >/dev/null
+"$host" replay "$work/data" --out "$work/host" --quiet --deterministic >/dev/null
+qemu-aarch64 -L / "$arm" replay "$work/data" --out "$work/aarch64" --quiet --deterministic >/dev/null
 
 # Same number of poses, same stamps, positions within 1e-6 m.
 awk 'FNR == NR { if ($1 !~ /^#/) { t[++n] = $1; x[n] = $2; y[n] = $3; z[n] = $4 } next }

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Builds and runs every test: on the host, then cross-built for aarch64 under qemu-user, then the
+# Builds and runs every test: on the host, then cross-built for aarch64 under qemu-user (plus the
+# host-vs-aarch64 trajectory check, scripts/determinism.sh), then the
 # solver (the part without OpenCV) cross-built for 32-bit armhf under qemu-user.
 # Usage: scripts/test.sh [host|aarch64|armhf|all]   (default all)
 set -euo pipefail
@@ -32,6 +33,10 @@ if [[ "$want" == "aarch64" || "$want" == "all" ]]; then
   run_suite aarch64 "$root/build/aarch64" \
     -DCMAKE_TOOLCHAIN_FILE="$root/toolchains/aarch64-linux-gnu.cmake" -DUMS_BUILD_BENCHMARKS=OFF \
     || status=1
+fi
+if [[ "$want" == "all" && -x "$root/build/host/board/host/umsvins" && -x "$root/build/aarch64/board/host/umsvins" ]]; then
+  echo "== determinism: host vs aarch64 (qemu) on a 6 s flight"
+  "$root/scripts/determinism.sh" "$root/build/host" "$root/build/aarch64" || status=1
 fi
 if [[ "$want" == "armhf" || "$want" == "all" ]]; then
   run_suite armhf-solver "$root/build/armhf" \

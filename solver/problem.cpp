@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 namespace ums::solver {
@@ -37,16 +38,27 @@ inline void add_jtr(DenseVector& b, int o, const double* J, int t, const double*
   b.segment(o, t) += A.transpose().lazyProduct(Eigen::Map<const Eigen::VectorXd>(r, rows));
 }
 
-// col[0..N) += a0 * b0 + a1 * b1: one column of a 2-row J^T J block in whole packets of 2
-// (Eigen's packet ops on Vector2d: SSE2 / NEON). Written with explicit packets because GCC's own
-// vectorizer turns the unrolled triangle into scalar code.
+// Two doubles in one SSE2 / NEON register. GCC's vector extension rather than Eigen's Vector2d:
+// its lane-wise ops round alike on every architecture and stay SIMD when Eigen is built scalar
+// for cross-architecture determinism (UMS_PORTABLE_FP).
+typedef double Pair __attribute__((vector_size(16)));
+
+inline Pair load_pair(const double* p) {
+  Pair v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+
+// col[0..N) += a0 * b0 + a1 * b1: one column of a 2-row J^T J block in whole packets of 2.
+// Written with explicit packets because GCC's own vectorizer turns the unrolled triangle into
+// scalar code.
 template <int N>
-__attribute__((always_inline)) inline void col_update2(double* col, const Eigen::Vector2d* a0,
-                                                       const Eigen::Vector2d* a1, double b0,
+__attribute__((always_inline)) inline void col_update2(double* col, const Pair* a0, const Pair* a1, double b0,
                                                        double b1) {
+  const Pair vb0 = {b0, b0}, vb1 = {b1, b1};
   for (int i = 0; i < N / 2; ++i) {
-    Eigen::Map<Eigen::Vector2d> c(col + 2 * i);
-    c += a0[i] * b0 + a1[i] * b1;
+    const Pair c = load_pair(col + 2 * i) + (a0[i] * vb0 + a1[i] * vb1);
+    std::memcpy(col + 2 * i, &c, sizeof c);
   }
 }
 
@@ -56,10 +68,10 @@ __attribute__((always_inline)) inline void col_update2(double* col, const Eigen:
 template <bool Upper>
 __attribute__((always_inline)) inline void add_jtj_2x6(double* Hb, Eigen::Index ld, const double* A,
                                                        const double* C) {
-  Eigen::Vector2d a0[3], a1[3];
+  Pair a0[3], a1[3];
   for (int i = 0; i < 3; ++i) {
-    a0[i] = Eigen::Map<const Eigen::Vector2d>(A + 2 * i);
-    a1[i] = Eigen::Map<const Eigen::Vector2d>(A + 6 + 2 * i);
+    a0[i] = load_pair(A + 2 * i);
+    a1[i] = load_pair(A + 6 + 2 * i);
   }
   if constexpr (Upper) {
     col_update2<2>(Hb, a0, a1, A[0], A[6]);

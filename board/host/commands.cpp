@@ -13,9 +13,10 @@ constexpr const char* kUsage = R"(umsvins: stereo visual-inertial odometry (UMS-
 usage: umsvins <command> [options]
 
   replay <dataset> [--config F] [--out DIR] [--start S] [--duration S] [--realtime]
-                   [--frontend-only] [--quiet]
+                   [--frontend-only] [--quiet] [--deterministic]
       Run on an EuRoC-layout folder (the one holding mav0/). Writes DIR/stats.json
       (and DIR/trajectory.tum, DIR/report.html where those stages exist). Default DIR: out/replay.
+      --deterministic: solver rounds bounded by iterations, not wall time (same result anywhere).
   simulate [--trajectory F] [--scenario NAME] [--seed N] [--start S] [--duration S]
            [--camera euroc|d455] [--max-frames N] [--exposure-change] --out DIR
       Write a synthetic EuRoC-layout stereo+IMU dataset (scenarios: nominal, standstill-start,

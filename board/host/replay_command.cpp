@@ -113,7 +113,7 @@ void write_report(const std::string& dataset, const hal::EurocReader& reader, co
 }  // namespace
 
 int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
-  const Args args("replay", argv, {"realtime", "frontend-only", "quiet"},
+  const Args args("replay", argv, {"realtime", "frontend-only", "quiet", "deterministic"},
                   {"config", "out", "start", "duration"});
   args.require_positionals(1, "<dataset> (the folder holding mav0/)");
   const std::string dataset = args.positionals()[0];
@@ -138,6 +138,7 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
 
   ReplayPipelineOptions pipeline_options;
   pipeline_options.frontend_only = args.has("frontend-only");
+  pipeline_options.deterministic = args.has("deterministic");
   pipeline_options.report_frames = reader.total_pairs_estimate() + 16;
   // Start-up footprint: everything the pipeline allocates while it is built, plus itself.
   AllocScope startup_allocs;

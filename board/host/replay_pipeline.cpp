@@ -3,6 +3,7 @@
 #include <chrono>
 #include <ctime>
 #include <cmath>
+#include <limits>
 
 #include "core/math/so3.hpp"
 #include "profiling/alloc_counter.hpp"
@@ -19,14 +20,14 @@ FrontendOptions frontend_options_from(const AppConfig& config) {
   return o;
 }
 
-EstimatorOptions estimator_options_from(const AppConfig& config) {
+EstimatorOptions estimator_options_from(const AppConfig& config, const ReplayPipelineOptions& pipeline) {
   EstimatorOptions o;
   o.keyframe.min_parallax_px = static_cast<float>(config.keyframe_parallax_px);
   o.focal_px = config.rig.cam[0].fx > 0.0 ? config.rig.cam[0].fx : o.focal_px;
   o.keyframe.focal_px = static_cast<float>(o.focal_px);
   o.estimate_extrinsic = config.estimate_extrinsic;
   o.max_iterations_round2 = config.max_num_iterations;
-  o.round2_time_s = config.max_solver_time_s;
+  o.round2_time_s = pipeline.deterministic ? std::numeric_limits<double>::infinity() : config.max_solver_time_s;
   o.preintegration.noise = ImuNoise::from_calibration(config.rig.imu);
   return o;
 }
@@ -52,7 +53,7 @@ ReplayPipeline::ReplayPipeline(const AppConfig& config, const ReplayPipelineOpti
       options_(options),
       times_(new StageTimes()),
       frontend_(frontend_options_from(config), config.rig),
-      estimator_(options.frontend_only ? nullptr : new Estimator(estimator_options_from(config), config.rig)),
+      estimator_(options.frontend_only ? nullptr : new Estimator(estimator_options_from(config, options), config.rig)),
       features_(new FrameFeatures()),
       q_b_c0_(config.rig.cam[0].T_b_c.rotation()) {
   // Reserved here so that recording a frame never allocates; beyond it frames are counted only.

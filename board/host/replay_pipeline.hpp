@@ -22,6 +22,9 @@ namespace ums::cli {
 
 struct ReplayPipelineOptions {
   bool frontend_only = false;      // run the front end and stop there
+  // Second BA round bounded by its iteration cap only, not by the wall clock: the same
+  // trajectory on any machine however loaded or emulated (the cross-architecture check).
+  bool deterministic = false;
   std::size_t report_frames = 0;   // frames of per-frame series kept for report.html (reserved once)
   std::uint64_t steady_state_from_frame = 50;  // frames before this are warm-up for alloc counting
 };

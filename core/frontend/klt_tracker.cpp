@@ -2,10 +2,104 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <stdexcept>
 #include <string>
 
 namespace ums {
+
+namespace {
+
+// Window sums in 4 lanes (one SSE or NEON register) with a fixed order: element k always lands in
+// lane k % 4 and the lanes are added 0..3, then the tail. Every machine then gives the same float
+// (Eigen's reductions split differently per architecture; issue 8's cross-architecture check).
+typedef float Lanes __attribute__((vector_size(16)));
+constexpr int kLanes = 4;
+
+inline Lanes load(const float* p) {
+  Lanes v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+
+inline float lane_sum(Lanes v) {
+  float s = 0.0f;
+  for (int i = 0; i < kLanes; ++i) s += v[i];
+  return s;
+}
+
+// Structure tensor of the template gradients and their plain sums.
+struct GradientSums {
+  float gxx = 0.0f, gxy = 0.0f, gyy = 0.0f, gx = 0.0f, gy = 0.0f;
+};
+
+GradientSums gradient_sums(const float* gx, const float* gy, int nn) {
+  Lanes sxx{}, sxy{}, syy{}, sx{}, sy{};
+  int k = 0;
+  for (; k + kLanes <= nn; k += kLanes) {
+    const Lanes a = load(gx + k), b = load(gy + k);
+    sxx += a * a;
+    sxy += a * b;
+    syy += b * b;
+    sx += a;
+    sy += b;
+  }
+  GradientSums s{lane_sum(sxx), lane_sum(sxy), lane_sum(syy), lane_sum(sx), lane_sum(sy)};
+  for (; k < nn; ++k) {
+    s.gxx += gx[k] * gx[k];
+    s.gxy += gx[k] * gy[k];
+    s.gyy += gy[k] * gy[k];
+    s.gx += gx[k];
+    s.gy += gy[k];
+  }
+  return s;
+}
+
+// sum d, sum d gx, sum d gy with d = T - W.
+struct ErrorSums {
+  float d = 0.0f, dgx = 0.0f, dgy = 0.0f;
+};
+
+ErrorSums error_sums(const float* t, const float* w, const float* gx, const float* gy, int nn) {
+  Lanes sd{}, sdx{}, sdy{};
+  int k = 0;
+  for (; k + kLanes <= nn; k += kLanes) {
+    const Lanes d = load(t + k) - load(w + k);
+    sd += d;
+    sdx += d * load(gx + k);
+    sdy += d * load(gy + k);
+  }
+  ErrorSums s{lane_sum(sd), lane_sum(sdx), lane_sum(sdy)};
+  for (; k < nn; ++k) {
+    const float d = t[k] - w[k];
+    s.d += d;
+    s.dgx += d * gx[k];
+    s.dgy += d * gy[k];
+  }
+  return s;
+}
+
+// Mean |T - W - offset| with the offset the mean of T - W.
+float mean_abs_error(const float* t, const float* w, int nn) {
+  Lanes sd{};
+  int k = 0;
+  for (; k + kLanes <= nn; k += kLanes) sd += load(t + k) - load(w + k);
+  float sum_d = lane_sum(sd);
+  for (int j = k; j < nn; ++j) sum_d += t[j] - w[j];
+  const float inv_area = 1.0f / static_cast<float>(nn);
+  const float mean_d = sum_d * inv_area;
+  const Lanes mean{mean_d, mean_d, mean_d, mean_d};
+  Lanes sa{};
+  for (k = 0; k + kLanes <= nn; k += kLanes) {
+    const Lanes e = load(t + k) - load(w + k) - mean;
+    sa += e < 0.0f ? -e : e;
+  }
+  float sum_abs = lane_sum(sa);
+  for (; k < nn; ++k) sum_abs += std::fabs(t[k] - w[k] - mean_d);
+  return sum_abs * inv_area;
+}
+
+}  // namespace
 
 void KltOptions::validate() const {
   if (window_px < 5 || window_px > kMaxWindowPx || window_px % 2 == 0) {
@@ -62,8 +156,6 @@ Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels,
                  const Eigen::Vector2f& p_prev, Eigen::Vector2f* p_curr) {
   constexpr int kMaxN = KltOptions::kMaxWindowPx;
   constexpr int kMaxT = kMaxN + 2;
-  // The window sums are Eigen array reductions (vectorised, several partial sums).
-  using ArrMap = Eigen::Map<const Eigen::ArrayXf, Eigen::Aligned16>;
   float tmpl_ext[kMaxT * kMaxT];
   alignas(16) float tmpl[kMaxN * kMaxN];
   alignas(16) float gx[kMaxN * kMaxN];
@@ -97,9 +189,8 @@ Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels,
         gy[k] = 0.5f * (c[i + ne] - c[i - ne]);
       }
     }
-    const ArrMap GX(gx, nn), GY(gy, nn);
-    const float gxx = GX.square().sum(), gxy = (GX * GY).sum(), gyy = GY.square().sum();
-    const float sum_gx = GX.sum(), sum_gy = GY.sum();
+    const GradientSums gs = gradient_sums(gx, gy, nn);
+    const float gxx = gs.gxx, gxy = gs.gxy, gyy = gs.gyy;
     // Smallest eigenvalue of the mean structure tensor: an untextured window cannot be tracked.
     const float a = gxx * inv_area, b = gxy * inv_area, c2 = gyy * inv_area;
     const float min_eig = 0.5f * ((a + c2) - std::sqrt((a - c2) * (a - c2) + 4.0f * b * b));
@@ -127,13 +218,10 @@ Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels,
       // Intensity offset between the windows (exposure, or the two cameras' gains) removed:
       // e = (T - mean T) - (J - mean J) = d - mean d with d = T - J, so
       // sum e g = sum d g - mean(d) sum g (d is small near convergence: no cancellation).
-      const ArrMap T(tmpl, nn), W(warped, nn);
-      const float sum_d = (T - W).sum();
-      float bx = ((T - W) * GX).sum();
-      float by = ((T - W) * GY).sum();
-      const float mean_d = sum_d * inv_area;
-      bx -= mean_d * sum_gx;
-      by -= mean_d * sum_gy;
+      const ErrorSums es = error_sums(tmpl, warped, gx, gy, nn);
+      const float mean_d = es.d * inv_area;
+      const float bx = es.dgx - mean_d * gs.gx;
+      const float by = es.dgy - mean_d * gs.gy;
       const float ex = inv_det * (gyy * bx - gxy * by);
       const float ey = inv_det * (gxx * by - gxy * bx);
       nu.x() += ex;
@@ -160,10 +248,7 @@ Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels,
   }
   // Photometric check at level 0 (the template was sampled at level 0 in the last pass).
   sample_patch_bilinear(J0, result.x() - static_cast<float>(half), result.y() - static_cast<float>(half), n, warped);
-  const ArrMap T(tmpl, nn), W(warped, nn);
-  const float mean_d = (T - W).sum() * inv_area;
-  const float sum_abs = (T - W - mean_d).abs().sum();
-  if (!(sum_abs * inv_area <= options.max_mean_abs_error)) return Status::kNotConverged;
+  if (!(mean_abs_error(tmpl, warped, nn) <= options.max_mean_abs_error)) return Status::kNotConverged;
   *p_curr = result;
   return Status::kOk;
 }
