@@ -27,6 +27,9 @@ const NumericKey kNumericKeys[] = {
     {"max_cnt", "max_cnt", 1, static_cast<double>(capacity::kMaxFeaturesPerCamera), true, "features",
      " (capacity::kMaxFeaturesPerCamera)", [](const AppConfig& c) { return double(c.max_cnt); },
      [](AppConfig& c, double v) { c.max_cnt = static_cast<int>(v); }},
+    {"detect_min_missing", "detect_min_missing", 1, static_cast<double>(capacity::kMaxFeaturesPerCamera), true,
+     "features", " (and <= max_cnt)", [](const AppConfig& c) { return double(c.detect_min_missing); },
+     [](AppConfig& c, double v) { c.detect_min_missing = static_cast<int>(v); }},
     {"min_dist", "min_dist_px", 1, 200, false, "px", "", [](const AppConfig& c) { return c.min_dist_px; },
      [](AppConfig& c, double v) { c.min_dist_px = v; }},
     {"F_threshold", "f_threshold_px", 0.01, 10, false, "px", "", [](const AppConfig& c) { return c.f_threshold_px; },
@@ -183,6 +186,10 @@ void AppConfig::validate() const {
       throw std::invalid_argument(std::string("AppConfig.") + k.field + " = " + format_value(v) +
                                   ": allowed " + range_text(k));
     }
+  }
+  if (detect_min_missing > max_cnt) {
+    throw std::invalid_argument("AppConfig.detect_min_missing = " + std::to_string(detect_min_missing) +
+                                ": allowed 1..max_cnt (" + std::to_string(max_cnt) + ")");
   }
   for (int side = 0; side < 2; ++side) {
     const CameraCalibration& cam = rig.cam[side];

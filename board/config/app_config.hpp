@@ -23,6 +23,7 @@ struct AppConfig {
   int max_cnt = 200;                    // features per frame, 3D + 2D-left + 2D-right (VINS max_cnt)
   double min_dist_px = 25.0;            // px, minimum distance between features (VINS min_dist)
   double f_threshold_px = 1.0;          // px, epipolar RANSAC inlier threshold (VINS F_threshold)
+  int detect_min_missing = 1;           // features missing before a new detection (ours; <= max_cnt)
   // Keyframes
   double keyframe_parallax_px = 10.0;   // px at a 460 px focal length (VINS keyframe_parallax)
   // Back end

@@ -15,6 +15,7 @@ namespace {
 FrontendOptions frontend_options_from(const AppConfig& config) {
   FrontendOptions o;
   o.max_cnt = config.max_cnt;
+  o.detect_min_missing = config.detect_min_missing;
   o.detector.min_distance_px = static_cast<float>(config.min_dist_px);
   o.ransac.threshold_px = static_cast<float>(config.f_threshold_px);
   return o;

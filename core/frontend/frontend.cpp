@@ -55,6 +55,7 @@ void FrontendOptions::validate() const {
   if (levels_3d < 1 || levels_3d > levels_2d) fail("levels_3d", levels_3d);
   if (levels_stereo < 1 || levels_stereo > capacity::kMaxPyramidLevels) fail("levels_stereo", levels_stereo);
   if (stereo_retry_interval < 1 || stereo_retry_interval > 1000) fail("stereo_retry_interval", stereo_retry_interval);
+  if (detect_min_missing < 1 || detect_min_missing > max_cnt) fail("detect_min_missing", detect_min_missing);
   if (!(fb_max_px > 0.0f)) fail("fb_max_px", static_cast<double>(fb_max_px));
   if (!(stereo_fb_max_px > 0.0f)) fail("stereo_fb_max_px", static_cast<double>(stereo_fb_max_px));
   if (!(stereo_epipolar_max_px > 0.0f)) fail("stereo_epipolar_max_px", static_cast<double>(stereo_epipolar_max_px));
@@ -252,7 +253,7 @@ void Frontend::thin_crowded(FrontendFrameStats* st) {
 void Frontend::detect_left(FrontendFrameStats* st) {
   const int total = static_cast<int>(left_.size() + right_.size());
   const int budget = std::min(options_.max_cnt - total, static_cast<int>(kCap - left_.size()));
-  if (budget <= 0) return;
+  if (budget <= 0 || options_.max_cnt - total < options_.detect_min_missing) return;
   const int found = detector_->detect(pyr_[cur_][0]->level(0), budget, options_.detector, new_px_);
   for (int i = 0; i < found; ++i) {
     LeftTrack t;
@@ -351,7 +352,7 @@ void Frontend::match_stereo(FrontendFrameStats* st) {
 void Frontend::detect_right(FrontendFrameStats* st) {
   const int total = static_cast<int>(left_.size() + right_.size());
   const int budget = std::min(options_.max_cnt - total, static_cast<int>(kCap - right_.size()));
-  if (budget <= 0) return;
+  if (budget <= 0 || options_.max_cnt - total < options_.detect_min_missing) return;
   // Cover the right image where left features are (3D: their match; 2D-left: where the match
   // was sought) and where 2D-right tracks already are.
   detector_->clear_mask();

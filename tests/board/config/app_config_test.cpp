@@ -222,6 +222,7 @@ TEST_CASE("each invalid value stops with file, key, value and the allowed range"
       {"max_cnt: 150", "max_cnt: 0", "key 'max_cnt': value 0, allowed 1.."},
       {"max_cnt: 150", "max_cnt: 150.5", "key 'max_cnt': value 150.5, allowed 1.."},
       {"max_cnt: 150", "max_cnt: many", "key 'max_cnt': value 'many', allowed 1.."},
+      {"max_cnt: 150", "max_cnt: 150\ndetect_min_missing: 0", "key 'detect_min_missing': value 0, allowed 1.."},
       {"min_dist: 30", "min_dist: -3", "key 'min_dist': value -3, allowed 1..200 px"},
       {"F_threshold: 1.0", "F_threshold: 0", "key 'F_threshold': value 0, allowed 0.01..10 px"},
       {"keyframe_parallax: 10.0", "keyframe_parallax: 1000", "key 'keyframe_parallax': value 1000, allowed 0.1..100 px"},
@@ -290,6 +291,11 @@ TEST_CASE("AppConfig::validate names the field, value and range", "[config]") {
   ums::AppConfig c = ums::config_from_calibration(micro_calibration());
   c.max_cnt = 401;
   CHECK_THROWS_WITH(c.validate(), Catch::Contains("AppConfig.max_cnt = 401: allowed 1..400"));
+  c = ums::config_from_calibration(micro_calibration());
+  c.detect_min_missing = c.max_cnt + 1;
+  CHECK_THROWS_WITH(c.validate(), Catch::Contains("AppConfig.detect_min_missing = 201: allowed 1..max_cnt (200)"));
+  c.detect_min_missing = 10;
+  CHECK_NOTHROW(c.validate());
   c = ums::config_from_calibration(micro_calibration());
   c.rig.imu.gravity_m_s2 = 0;
   CHECK_THROWS_WITH(c.validate(), Catch::Contains("AppConfig.rig.imu.gravity_m_s2 = 0: allowed 9..10.5 m/s^2"));

@@ -328,3 +328,38 @@ TEST_CASE("sub-stage times (EuRoC micro): non-negative, sum within the call's wa
   CHECK(different == 0);
   if (ums::alloc_counter_available()) CHECK(allocs_after_first == 0);
 }
+
+TEST_CASE("detect_min_missing: no detection until that many of max_cnt features are missing (EuRoC micro)") {
+  const ums::test::EurocPairs data = ums::test::load_euroc_micro();
+  static ums::FrameFeatures out;
+  // Frames after the first that ran a detection, and how many features were missing before it.
+  auto run = [&](int min_missing, int* detect_frames, int* fewest_missing) {
+    ums::FrontendOptions opt;
+    opt.detect_min_missing = min_missing;
+    ums::Frontend fe(opt, ums::test::euroc_rig());
+    *detect_frames = 0;
+    *fewest_missing = opt.max_cnt;
+    for (std::size_t i = 0; i < data.size(); ++i) {
+      REQUIRE(fe.process(data.frame(i), nullptr, &out) == ums::Status::kOk);
+      const int added = out.stats.new_left + out.stats.new_right;
+      if (i == 0 || added == 0) continue;
+      ++*detect_frames;
+      const int before = static_cast<int>(out.features.size()) - added;
+      *fewest_missing = std::min(*fewest_missing, opt.max_cnt - before);
+    }
+  };
+  int frames_1 = 0, missing_1 = 0, frames_20 = 0, missing_20 = 0;
+  run(1, &frames_1, &missing_1);
+  run(20, &frames_20, &missing_20);
+  std::printf("[frontend] detections after frame 1: %d frames (fewest missing %d) with detect_min_missing 1, "
+              "%d frames (fewest missing %d) with 20\n", frames_1, missing_1, frames_20, missing_20);
+  CHECK(missing_1 < 20);  // at rest a few tracks are lost per frame and topped up at once
+  CHECK(missing_20 >= 20);
+  CHECK(frames_20 < frames_1);
+
+  ums::FrontendOptions bad;
+  bad.detect_min_missing = 0;
+  CHECK_THROWS_AS(ums::Frontend(bad, ums::test::euroc_rig()), std::invalid_argument);
+  bad.detect_min_missing = bad.max_cnt + 1;
+  CHECK_THROWS_AS(ums::Frontend(bad, ums::test::euroc_rig()), std::invalid_argument);
+}
