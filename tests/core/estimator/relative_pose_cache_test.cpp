@@ -6,19 +6,12 @@
 
 #include <Eigen/Geometry>
 
+#include "tests/core/estimator/pose_block.hpp"
+
 namespace {
 
-void set_pose(double* x, const Eigen::Vector3d& p, const Eigen::Quaterniond& q) {
-  x[0] = p.x(); x[1] = p.y(); x[2] = p.z();
-  x[3] = q.x(); x[4] = q.y(); x[5] = q.z(); x[6] = q.w();
-}
-
-Eigen::Isometry3d iso(const double* x) {
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = Eigen::Quaterniond(x[6], x[3], x[4], x[5]).toRotationMatrix();
-  T.translation() = Eigen::Vector3d(x[0], x[1], x[2]);
-  return T;
-}
+using ums::test::iso;
+using ums::test::set_pose;
 
 // T_ct_ch composed directly: target camera <- target body <- world <- host body <- host camera.
 Eigen::Isometry3d direct(const double* pose_h, const double* pose_t, const double* ext_h, const double* ext_t) {
