@@ -10,8 +10,10 @@ host_pkgs=(cmake ninja-build g++ pkg-config libeigen3-dev libopencv-core-dev lib
 bench_pkgs=(libceres-dev)
 arm64_pkgs=(g++-aarch64-linux-gnu qemu-user libopencv-core-dev:arm64 libopencv-imgproc-dev:arm64
             libpng-dev:arm64 zlib1g-dev:arm64)
-# armhf: the cross compiler's own sysroot only (Debian 12's :armhf OpenCV is not co-installable here).
 armhf_pkgs=(g++-arm-linux-gnueabihf qemu-user)
+# The whole product on armhf needs OpenCV and libpng for :armhf. Best effort: on 2026-11-22 a
+# mirror mid-sync made them uninstallable; then scripts/test.sh builds and tests the solver only.
+armhf_lib_pkgs=(libopencv-core-dev:armhf libopencv-imgproc-dev:armhf libpng-dev:armhf zlib1g-dev:armhf)
 
 pkgs=("${host_pkgs[@]}" "${bench_pkgs[@]}")
 if [[ "$want" == "aarch64" || "$want" == "all" ]]; then
@@ -21,25 +23,41 @@ if [[ "$want" == "armhf" || "$want" == "all" ]]; then
   pkgs+=("${armhf_pkgs[@]}")
 fi
 
-missing=()
-for p in "${pkgs[@]}"; do
-  # dpkg-query prints "install ok installed" only for a fully installed package.
-  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
-    missing+=("$p")
-  fi
-done
-[[ ${#missing[@]} -eq 0 ]] && exit 0
+missing_of() {  # package... -> the ones not fully installed
+  local p
+  for p in "$@"; do
+    # dpkg-query prints "install ok installed" only for a fully installed package.
+    if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+      echo "$p"
+    fi
+  done
+}
+mapfile -t missing < <(missing_of "${pkgs[@]}")
+optional=()
+if [[ "$want" == "armhf" || "$want" == "all" ]]; then
+  mapfile -t optional < <(missing_of "${armhf_lib_pkgs[@]}")
+fi
+[[ ${#missing[@]} -eq 0 && ${#optional[@]} -eq 0 ]] && exit 0
 
-echo "deps: installing ${missing[*]}"
 sudo_cmd=()
 [[ $(id -u) -ne 0 ]] && sudo_cmd=(sudo)
-if printf '%s\n' "${missing[@]}" | grep -q ':arm64'; then
-  if ! dpkg --print-foreign-architectures | grep -qx arm64; then
-    "${sudo_cmd[@]}" dpkg --add-architecture arm64
+for arch in arm64 armhf; do
+  if printf '%s\n' "${missing[@]}" "${optional[@]}" | grep -q ":$arch"; then
+    if ! dpkg --print-foreign-architectures | grep -qx "$arch"; then
+      "${sudo_cmd[@]}" dpkg --add-architecture "$arch"
+    fi
   fi
-fi
+done
 export DEBIAN_FRONTEND=noninteractive
 # A mirror in mid-sync can fail one index; the install below still works from the others.
 "${sudo_cmd[@]}" apt-get update -qq || echo "deps: apt-get update reported errors, installing anyway" >&2
-"${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+if [[ ${#missing[@]} -gt 0 ]]; then
+  echo "deps: installing ${missing[*]}"
+  "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+if [[ ${#optional[@]} -gt 0 ]]; then
+  echo "deps: installing ${optional[*]} (optional: armhf beyond the solver)"
+  "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${optional[@]}" >/dev/null \
+    || echo "deps: the armhf libraries could not be installed: the armhf build covers the solver only" >&2
+fi
 echo "deps: done"
