@@ -250,10 +250,15 @@ void Frontend::thin_crowded(FrontendFrameStats* st) {
   left_.resize(w);
 }
 
+int Frontend::detection_budget(std::size_t tracks_in_camera) const {
+  const int missing = options_.max_cnt - static_cast<int>(left_.size() + right_.size());
+  if (missing < options_.detect_min_missing) return 0;
+  return std::max(0, std::min(missing, static_cast<int>(kCap - tracks_in_camera)));
+}
+
 void Frontend::detect_left(FrontendFrameStats* st) {
-  const int total = static_cast<int>(left_.size() + right_.size());
-  const int budget = std::min(options_.max_cnt - total, static_cast<int>(kCap - left_.size()));
-  if (budget <= 0 || options_.max_cnt - total < options_.detect_min_missing) return;
+  const int budget = detection_budget(left_.size());
+  if (budget == 0) return;
   const int found = detector_->detect(pyr_[cur_][0]->level(0), budget, options_.detector, new_px_);
   for (int i = 0; i < found; ++i) {
     LeftTrack t;
@@ -350,9 +355,8 @@ void Frontend::match_stereo(FrontendFrameStats* st) {
 }
 
 void Frontend::detect_right(FrontendFrameStats* st) {
-  const int total = static_cast<int>(left_.size() + right_.size());
-  const int budget = std::min(options_.max_cnt - total, static_cast<int>(kCap - right_.size()));
-  if (budget <= 0 || options_.max_cnt - total < options_.detect_min_missing) return;
+  const int budget = detection_budget(right_.size());
+  if (budget == 0) return;
   // Cover the right image where left features are (3D: their match; 2D-left: where the match
   // was sought) and where 2D-right tracks already are.
   detector_->clear_mask();

@@ -117,6 +117,9 @@ class Frontend {
   void track_left(const Eigen::Matrix3f* R_curr_prev, FrontendFrameStats* st, StageClock* clock);
   void track_right(const Eigen::Matrix3f* R_curr_prev, FrontendFrameStats* st, StageClock* clock);
   void thin_crowded(FrontendFrameStats* st);
+  // New corners one camera may add (0: none): what max_cnt lacks, bounded by the camera's free
+  // track slots; 0 while fewer than detect_min_missing are missing.
+  int detection_budget(std::size_t tracks_in_camera) const;
   void detect_left(FrontendFrameStats* st);
   void match_stereo(FrontendFrameStats* st);
   void detect_right(FrontendFrameStats* st);

@@ -244,7 +244,6 @@ TEST_CASE("umsvins replay runs the front end on real EuRoC frames and writes sta
   CHECK(mean_3d >= 100.0);
 }
 
-
 TEST_CASE("umsvins replay --deterministic: two replays write the same trajectory to the byte", "[cli][sim]") {
   // The cross-architecture check (scripts/determinism.sh) compares host and aarch64 runs; this is
   // its precondition on one machine: no wall clock, no uninitialised memory, no run-to-run state.
