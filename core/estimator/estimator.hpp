@@ -31,6 +31,7 @@
 #include "core/common/imu_sample.hpp"
 #include "core/estimator/bearing_residual.hpp"
 #include "core/estimator/estimator_options.hpp"
+#include "core/estimator/frame_id.hpp"
 #include "core/estimator/geometry.hpp"
 #include "core/estimator/imu_factor.hpp"
 #include "core/estimator/landmark.hpp"
@@ -63,6 +64,7 @@ constexpr const char* to_string(EstimatorMode m) {
 // The estimate at one frame (camera rate).
 struct EstimatorOutput {
   std::int64_t t_ns = 0;             // frame time, camera clock (the dataset's)
+  FrameId frame_id = kNoFrame;       // the window frame this estimate belongs to
   EstimatorMode mode = EstimatorMode::kImuOnly;
   bool valid = false;                // a pose exists (attitude and velocity known)
   bool keyframe = false;
