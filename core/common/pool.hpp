@@ -50,6 +50,15 @@ class IPool {
   std::uint64_t refused() const { return refused_; }
   std::size_t index_of(const T* item) const { return static_cast<std::size_t>(item - items_); }
   T* at_index(std::size_t i) { return in_use_[i] ? &items_[i] : nullptr; }
+  // The item at pool index i, which is in use (the owner's index says so).
+  T& item(std::size_t i) {
+    UMS_ASSERT(i < capacity_ && in_use_[i] == 1);
+    return items_[i];
+  }
+  const T& item(std::size_t i) const {
+    UMS_ASSERT(i < capacity_ && in_use_[i] == 1);
+    return items_[i];
+  }
 
  protected:
   IPool(T* items, std::uint32_t* free_list, std::uint8_t* in_use, std::size_t capacity)

@@ -13,10 +13,32 @@
 
 namespace {
 
+// Keeps what the keyframe outlet hands on (outside the frame path of a product: a test).
+struct RecordingKeyframeSink final : ums::KeyframeSink {
+  struct Kept {
+    ums::FrameId id;
+    std::int64_t t_ns;
+    Eigen::Isometry3d T_odom_b;
+    int observations, points, stereo;
+    double max_point_range_m;
+  };
+  std::vector<Kept> kept;
+  void on_keyframe(const ums::MarginalizedKeyframe& k) override {
+    Kept c{k.id, k.t_ns, k.T_odom_b, static_cast<int>(k.observations.size()), 0, 0, 0.0};
+    for (const ums::KeyframeObservation& o : k.observations) {
+      c.points += o.has_point ? 1 : 0;
+      c.stereo += o.stereo ? 1 : 0;
+      if (o.has_point) c.max_point_range_m = std::max(c.max_point_range_m, (o.p_odom - k.T_odom_b.translation()).norm());
+    }
+    kept.push_back(c);
+  }
+};
+
 struct MicroRun {
   std::vector<ums::EstimatorOutput> outputs;
   ums::EstimatorStats stats;
   std::uint64_t steady_allocations = 0;
+  RecordingKeyframeSink keyframes;
 };
 
 // The real EuRoC micro sequence (V1_01, the vehicle standing on the floor) through the front end
@@ -34,6 +56,8 @@ MicroRun run_micro() {
   ums::SaturationElement saturation;
   MicroRun run;
   run.outputs.reserve(200);
+  run.keyframes.kept.reserve(200);
+  estimator->set_keyframe_sink(&run.keyframes);
   ums::ImuSample imu;
   ums::StereoFrame frame;
   for (;;) {
@@ -104,6 +128,31 @@ TEST_CASE("estimator on the real EuRoC micro sequence at rest: initializes withi
   CHECK(run.steady_allocations == 0);
   CHECK(run.stats.drops_landmarks == 0);
   CHECK(run.stats.drops_residuals == 0);
+}
+
+TEST_CASE("estimator: every keyframe leaving the window reaches the keyframe outlet with its points", "[estimator]") {
+  const MicroRun run = run_micro();
+  const auto& kept = run.keyframes.kept;
+  INFO(kept.size() << " keyframes emitted, " << run.stats.marginalized_old << " marginalized as the oldest");
+  REQUIRE(kept.size() >= 3);
+  CHECK(kept.size() <= run.stats.marginalized_old);  // only frames that leave as the oldest (not in IMU_ONLY)
+  CHECK(run.stats.keyframes_emitted == kept.size());
+  const Eigen::Vector3d p0 = run.outputs.front().p_w_b;
+  for (std::size_t i = 0; i < kept.size(); ++i) {
+    if (i > 0) CHECK(kept[i].id > kept[i - 1].id);  // FrameIds grow: never reused
+    if (i > 0) CHECK(kept[i].t_ns > kept[i - 1].t_ns);
+    CHECK(kept[i].observations >= 50);                // a textured room: ~200 features per frame
+    CHECK(kept[i].points >= kept[i].observations / 2);
+    CHECK(kept[i].stereo >= 50);
+    CHECK(kept[i].max_point_range_m < 60.0);          // within the landmark depth range
+    CHECK((kept[i].T_odom_b.translation() - p0).norm() < 0.02);  // at rest: where the rig stands
+  }
+  // Each keyframe's id names the frame the output named at its time.
+  for (const auto& k : kept) {
+    bool found = false;
+    for (const ums::EstimatorOutput& o : run.outputs) found = found || (o.frame_id == k.id && o.t_ns == k.t_ns);
+    CHECK(found);
+  }
 }
 
 TEST_CASE("estimator: invalid options are refused at start-up", "[estimator]") {

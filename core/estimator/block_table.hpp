@@ -1,0 +1,31 @@
+#pragma once
+// What each parameter block of the current solver problem is: a frame's pose or speed-bias
+// (named by FrameId, which outlives slots), an extrinsic (by camera) or a landmark. The prior's
+// blocks are remembered by these names between problems.
+
+#include <cstdint>
+#include <memory>
+
+#include "core/estimator/frame_id.hpp"
+#include "solver/capacity.hpp"
+
+namespace ums {
+
+enum class BlockKind : std::uint8_t { kPose = 0, kSpeedBias = 1, kExtrinsic = 2, kLandmark = 3 };
+
+struct BlockName {
+  BlockKind kind = BlockKind::kLandmark;
+  std::uint32_t owner = 0;  // FrameId for kPose / kSpeedBias, camera for kExtrinsic
+};
+
+class BlockTable {
+ public:
+  BlockTable() : names_(new BlockName[solver::capacity::kMaxParameterBlocks]) {}
+  void note(int id, BlockKind kind, std::uint32_t owner) { names_[id] = BlockName{kind, owner}; }
+  const BlockName& operator[](int id) const { return names_[id]; }
+
+ private:
+  std::unique_ptr<BlockName[]> names_;
+};
+
+}  // namespace ums

@@ -1,0 +1,216 @@
+// The per-mode work of one frame (paper Sec. III-B, III-C) and the window's upkeep.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "core/estimator/estimator.hpp"
+#include "core/estimator/imu_buffer.hpp"
+#include "core/estimator/initializer.hpp"
+#include "core/estimator/landmark_map.hpp"
+#include "core/estimator/marginalizer.hpp"
+#include "core/estimator/pnp_locator.hpp"
+#include "core/estimator/problem_builder.hpp"
+#include "core/estimator/state_blocks.hpp"
+#include "core/estimator/window.hpp"
+#include "core/estimator/window_backup.hpp"
+
+namespace ums {
+namespace {
+
+double ms_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
+
+ModeEvent Estimator::frame_imu_only(WindowFrame& f) {
+  // Case 1: the pose is the IMU's; keep trying the stereo visual initialization.
+  if (window_->size() < 2) {
+    landmarks_->triangulate_all(*window_, -1);
+    return ModeEvent::kNone;
+  }
+  if (!initializer_->visual_step(pnp_.get())) {
+    ++stats_.visual_init_failures;
+    reset_window(true);
+    landmarks_->triangulate_all(*window_, -1);
+    return ModeEvent::kNone;
+  }
+  set_nav_from(f);
+  if (f.still && last_still_valid_) return initializer_->standstill(last_still_);
+  frames_since_align_ = options_.align_retry_frames;  // try at once when the window allows
+  return ModeEvent::kVisualInit;
+}
+
+ModeEvent Estimator::frame_vo(WindowFrame& f) {
+  const int n = window_->size();
+  const WindowFrame& prev = window_->at(n - 2);
+  const double dt = static_cast<double>(f.t_ns - prev.t_ns) * 1e-9;
+  Eigen::Isometry3d prior = iso_from_pose(prev.pose);
+  prior.translation() += vo_velocity_ * dt;
+  if (f.imu_ok) {
+    Eigen::Vector3d alpha, beta;
+    Eigen::Quaterniond gamma;
+    f.pre.corrected(state::ba(prev.sb), state::bg(prev.sb), &alpha, &beta, &gamma);
+    prior.linear() = prior.linear() * gamma.toRotationMatrix();
+  }
+  pose_from_iso(prior, f.pose);
+  if (!pnp_->locate(*window_, *landmarks_, window_->slot_of(f), prior)) {
+    ++stats_.resets;
+    set_nav_from(f);
+    reset_window(true);
+    landmarks_->triangulate_all(*window_, -1);
+    return ModeEvent::kVisionLost;
+  }
+  landmarks_->triangulate_all(*window_, -1);
+  SolveSpec spec;
+  spec.groups = kAllGroups;
+  spec.imu = false;
+  spec.prior = false;
+  spec.fix_first_pose = true;
+  bool converged = false;
+  builder_->solve(spec, options_.max_iterations_stage, 1e9, &converged);
+  second_round(spec, converged);
+  if (dt > 0.0) vo_velocity_ = (state::p(f.pose) - state::p(prev.pose)) / dt;
+  state::v(f.sb) = vo_velocity_;
+  ++frames_since_align_;
+  if (f.still && prev.still && last_still_valid_) return initializer_->standstill(last_still_);
+  const double span_s = static_cast<double>(f.t_ns - window_->at(0).t_ns) * 1e-9;
+  if (n >= options_.min_align_frames && span_s >= options_.min_align_span_s &&
+      frames_since_align_ >= options_.align_retry_frames) {
+    frames_since_align_ = 0;
+    return initializer_->align();
+  }
+  return ModeEvent::kNone;
+}
+
+void Estimator::second_round(const SolveSpec& spec, bool converged) {
+  // Round 2 (paper Sec. III-C) on the cleaned set when something was removed or round 1 was cut
+  // short, bounded by time; nothing to refine when round 1 converged without outliers.
+  const int outliers = builder_->mark_outliers();
+  if (outliers > 0) landmarks_->compact();
+  if (outliers > 0 || !converged) {
+    builder_->solve(spec, std::max(1, options_.max_iterations_round2), options_.round2_time_s);
+    ++stats_.second_rounds;
+  }
+}
+
+void Estimator::frame_vio(WindowFrame& f, EstimatorTiming* timing) {
+  landmarks_->triangulate_all(*window_, window_->slot_of(f));
+  window_->update_imu_factors(g_w_);
+  const auto t1 = std::chrono::steady_clock::now();
+  SolveSpec spec;
+  spec.imu = true;
+  spec.prior = true;
+  const bool converged = solve_stages(f, &spec);
+  timing->solve_round1_ms = static_cast<float>(ms_since(t1));
+  const auto t2 = std::chrono::steady_clock::now();
+  second_round(spec, converged);
+  timing->solve_round2_ms = static_cast<float>(ms_since(t2));
+}
+
+bool Estimator::solve_stages(WindowFrame& f, SolveSpec* spec) {
+  const int it = options_.max_iterations_stage;
+  bool converged = false;
+  if (!options_.two_stage) {
+    spec->groups = kAllGroups;
+    builder_->solve(*spec, it, 1e9, &converged);
+  } else if (count_candidates(*landmarks_, k3DGroup) < options_.min_3d_landmarks) {
+    spec->groups = kAllGroups;
+    builder_->solve(*spec, it, 1e9, &converged);
+    ++stats_.stage_added_2d_right;
+  } else if (count_candidates(*landmarks_, k2DLeftGroup) == 0) {
+    // No 2D-left landmark to add: the second stage would be the first again.
+    spec->groups = k3DGroup;
+    builder_->solve(*spec, it, 1e9, &converged);
+    ++stats_.stage_3d_sufficient;
+  } else {
+    // The paper's two stages: stereo alone and stereo + 2D-left from the same start; agreement
+    // keeps the latter, disagreement brings in the 2D-right features as well.
+    save_window(*window_, *landmarks_, stage_backup_.get());
+    spec->groups = k3DGroup;
+    builder_->solve(*spec, options_.max_iterations_stage_a, 1e9);
+    const Eigen::Vector3d p_a = state::p(f.pose);
+    const Eigen::Quaterniond q_a = quat_of(f.pose).normalized();
+    restore_window(*stage_backup_, window_.get(), landmarks_.get());
+    spec->groups = k3DGroup | k2DLeftGroup;
+    builder_->solve(*spec, it, 1e9, &converged);
+    const double dp = (state::p(f.pose) - p_a).norm();
+    const double dq_deg = q_a.angularDistance(quat_of(f.pose).normalized()) * 180.0 / M_PI;
+    if (dp <= options_.stage_agree_m && dq_deg <= options_.stage_agree_deg) {
+      ++stats_.stage_kept_2d_left;
+    } else {
+      restore_window(*stage_backup_, window_.get(), landmarks_.get());
+      spec->groups = kAllGroups;
+      builder_->solve(*spec, it, 1e9, &converged);
+      ++stats_.stage_added_2d_right;
+    }
+  }
+  return converged;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Window upkeep
+
+void Estimator::remove_frame(int pos) {
+  landmarks_->remove_frame(window_->slot_at(pos), *window_);
+  window_->erase(pos);
+}
+
+void Estimator::reset_window(bool keep_newest) {
+  const bool keep = keep_newest && !window_->empty();
+  while (window_->size() > (keep ? 1 : 0)) remove_frame(0);
+  if (!keep) landmarks_->clear_observations();
+  marginalizer_->clear();
+  builder_->clear_init_prior();
+  keyframes_.reset();
+}
+
+// Marginalization (paper Sec. III-C): the oldest frame and the landmarks it hosts go into the
+// prior when the newest frame is a keyframe (and the oldest leaves through the keyframe outlet);
+// otherwise the second newest frame is dropped, its IMU interval merged into the newest one's,
+// and only removed from the prior if the prior holds it.
+void Estimator::slide_window(EstimatorTiming* timing) {
+  if (window_->size() < options_.window_size) return;
+  const auto t0 = std::chrono::steady_clock::now();
+  WindowFrame& newest = window_->newest();
+  const bool vio = mode_ == EstimatorMode::kVio;
+  if (newest.keyframe) {
+    int ids[2 + capacity::kMaxLandmarks];
+    const int n = vio ? builder_->oldest_frame_blocks(ids) : 0;
+    if (vio && !marginalizer_->adopt(builder_->problem(), builder_->blocks(), ids, n))
+      ++stats_.marginalization_failures;
+    if (mode_ != EstimatorMode::kImuOnly) marginalizer_->emit_keyframe(*window_, 0, *landmarks_);
+    remove_frame(0);
+    ++stats_.marginalized_old;
+  } else {
+    const int pos = window_->size() - 2;
+    WindowFrame& second = window_->at(pos);
+    if (vio && !marginalizer_->marginalize_frame(second.id, *window_, builder_->problem(), &builder_->blocks()))
+      ++stats_.marginalization_failures;
+    merge_into_newest(second, newest);
+    remove_frame(pos);
+    ++stats_.marginalized_second_new;
+  }
+  timing->marginalize_ms += static_cast<float>(ms_since(t0));
+}
+
+void Estimator::merge_into_newest(WindowFrame& second, WindowFrame& newest) {
+  // newest.pre = pre(second) followed by pre(newest), re-integrated from the stored samples.
+  ImuSample* scratch = imu_->scratch();
+  const std::size_t m = newest.pre.num_samples();
+  for (std::size_t k = 0; k < m; ++k) scratch[k] = newest.pre.sample(k);
+  if (second.pre.num_samples() >= 1 && m >= 1) {
+    const Eigen::Vector3d ba = second.pre.linearization_ba(), bg = second.pre.linearization_bg();
+    newest.pre.reset(second.pre.sample(0), ba, bg);
+    for (std::size_t k = 1; k < second.pre.num_samples(); ++k)
+      if (newest.pre.add(second.pre.sample(k)) == Status::kFull) ++stats_.drops_imu;
+    for (std::size_t k = 1; k < m; ++k)
+      if (newest.pre.add(scratch[k]) == Status::kFull) ++stats_.drops_imu;
+    newest.imu_ok = second.imu_ok && newest.imu_ok && newest.imu.residual().init(&newest.pre, g_w_) == Status::kOk;
+  } else {
+    newest.imu_ok = false;
+  }
+  newest.still = newest.still && second.still;
+}
+
+}  // namespace ums

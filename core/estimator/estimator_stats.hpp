@@ -1,0 +1,60 @@
+#pragma once
+// The estimator's counters and its mode log: what stats.json reports under init, modes,
+// estimator, memory.pools and drops. Every part of the estimator counts into one of these.
+
+#include <cstddef>
+#include <cstdint>
+
+#include "core/common/fixed_vector.hpp"
+#include "core/estimator/mode_machine.hpp"
+
+namespace ums {
+
+struct ModeChange {
+  std::int64_t t_ns = 0;
+  EstimatorMode from = EstimatorMode::kImuOnly;
+  EstimatorMode to = EstimatorMode::kImuOnly;
+  const char* reason = "";        // static string
+};
+
+struct EstimatorStats {
+  std::uint64_t frames = 0;
+  std::uint64_t frames_in_mode[3] = {0, 0, 0};
+  bool initialized = false;            // reached VIO
+  std::int64_t first_frame_t_ns = -1;
+  std::int64_t init_t_ns = -1;         // first time VIO was reached
+  const char* init_case = "";          // "standstill" or "visual-imu alignment"
+  FixedVector<ModeChange, 64> mode_changes;
+  std::uint64_t mode_changes_dropped = 0;
+  std::uint64_t visual_init_failures = 0;
+  std::uint64_t align_attempts = 0;
+  std::uint64_t align_failures = 0;     // any step of case 2 failed
+  std::uint64_t align_disagreements = 0;  // the two loosely coupled BAs differed
+  std::uint64_t solves = 0;
+  std::uint64_t stage_kept_2d_left = 0;   // 3D vs 3D+2D-left agreed
+  std::uint64_t stage_added_2d_right = 0; // disagreed or too few 3D: all classes
+  std::uint64_t stage_3d_sufficient = 0;  // no 2D-left landmark to try: one stage
+  std::uint64_t outlier_landmarks = 0;
+  std::uint64_t second_rounds = 0;        // frames whose round 2 ran (outliers or not converged)
+  std::uint64_t marginalized_old = 0;
+  std::uint64_t marginalized_second_new = 0;
+  std::uint64_t marginalization_failures = 0;
+  std::uint64_t still_frames = 0;
+  std::uint64_t still_rejected_by_vision = 0;  // IMU at rest but the images moved (uniform motion)
+  std::uint64_t resets = 0;             // divergence or visual loss in VO
+  double sum_landmarks_in_solve = 0.0;
+  double sum_2d_in_solve = 0.0;         // 2D-left + 2D-right landmarks in the final solves
+  std::uint64_t frames_solved = 0;
+  std::size_t peak_landmarks = 0;       // landmark pool use
+  std::size_t peak_residuals = 0;       // visual residual objects
+  std::uint64_t drops_landmarks = 0;    // features not tracked: landmark pool full
+  std::uint64_t drops_residuals = 0;    // observations not used: residual pool full
+  std::uint64_t drops_imu = 0;          // IMU samples not integrated: interval buffer full
+  std::uint64_t imu_out_of_order = 0;
+  std::uint64_t imu_held = 0;             // saturated samples replaced by the previous one
+  std::uint64_t frames_out_of_order = 0;  // frames not after the previous one: not processed
+  std::uint64_t keyframes_emitted = 0;    // keyframes handed to the KeyframeSink
+  std::uint64_t frames_without_pose = 0;  // IMU_ONLY before the velocity was ever known
+};
+
+}  // namespace ums

@@ -1,0 +1,59 @@
+#pragma once
+// The estimator's IMU input: time order, the saturation hold, the ring of recent samples the
+// standstill test reads, and the open preintegration interval (from the newest frame to the
+// next one, which lives in the next window slot). Fixed memory: a RingBuffer and a scratch copy.
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+
+#include <Eigen/Core>
+
+#include "core/common/capacity.hpp"
+#include "core/common/imu_sample.hpp"
+#include "core/common/ring_buffer.hpp"
+#include "core/imu/preintegration.hpp"
+
+namespace ums {
+
+class ImuBuffer {
+ public:
+  static constexpr std::size_t kRecent = capacity::kStandstillImuSamples;
+  static_assert(kRecent >= capacity::kMaxImuSamplesBetweenFrames,
+                "the scratch also holds one interval's samples when two are merged");
+
+  struct Added {
+    bool accepted = false;      // false: not after the previous sample, dropped
+    bool first = false;         // the first sample of the run
+    bool held = false;          // saturated: the previous sample was held in its place
+    bool interval_full = false; // the open interval had no room
+  };
+
+  ImuBuffer();
+  // One sample (after the saturation element; saturated: clipped, hold the previous one).
+  Added add(const ImuSample& in, bool saturated);
+  bool has_samples() const { return have_; }
+  const ImuSample& last() const { return last_; }
+
+  // The open interval: started at a frame with linearization biases, fed by add().
+  void open_interval(Preintegration* pre, std::int64_t t_ns, const Eigen::Vector3d& ba, const Eigen::Vector3d& bg);
+  bool interval_open() const { return open_; }
+  // Ends the open interval at the frame time (the last sample held to the stamp: samples arrive
+  // in time order, so all before the frame are in; holding <= 1/rate is well below the noise).
+  // Returns false when the boundary did not fit.
+  bool close_interval(std::int64_t t_ns);
+
+  // Recent samples with t in [t0_ns, t1_ns], oldest first, into scratch(); returns the count.
+  int copy_recent(std::int64_t t0_ns, std::int64_t t1_ns);
+  ImuSample* scratch() { return scratch_.get(); }
+
+ private:
+  std::unique_ptr<RingBuffer<ImuSample, kRecent>> recent_;
+  std::unique_ptr<ImuSample[]> scratch_;
+  ImuSample last_;
+  bool have_ = false;
+  Preintegration* interval_ = nullptr;
+  bool open_ = false;
+};
+
+}  // namespace ums

@@ -1,0 +1,29 @@
+#include "core/estimator/mode_machine.hpp"
+
+namespace ums {
+
+ModeTransition transition(EstimatorMode from, ModeEvent event) {
+  ModeTransition t;
+  t.to = from;
+  switch (event) {
+    case ModeEvent::kNone: break;
+    case ModeEvent::kVisualInit:
+      if (from == EstimatorMode::kImuOnly) t = {EstimatorMode::kVo, "visual init", true};
+      break;
+    case ModeEvent::kStandstill:
+      if (from != EstimatorMode::kVio) t = {EstimatorMode::kVio, "standstill", true};
+      break;
+    case ModeEvent::kAlignment:
+      if (from == EstimatorMode::kVo) t = {EstimatorMode::kVio, "visual-imu alignment", true};
+      break;
+    case ModeEvent::kVisionLost:
+      if (from == EstimatorMode::kVo) t = {EstimatorMode::kImuOnly, "vision lost in VO", true};
+      break;
+    case ModeEvent::kDivergence:
+      if (from == EstimatorMode::kVio) t = {EstimatorMode::kImuOnly, "divergence", true};
+      break;
+  }
+  return t;
+}
+
+}  // namespace ums

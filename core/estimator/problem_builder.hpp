@@ -1,0 +1,106 @@
+#pragma once
+// The only place that turns the window into a solver problem (paper eq. 4): state blocks, the
+// chosen landmarks' bearing residuals (visual_edges.hpp), IMU factors, the initialization bias
+// prior, the still constraints and the marginalization prior; then the solve, and the outlier
+// check over the same edges. Owns the solver Problem, the residual objects, the relative pose
+// cache and the block table: every byte allocated in the constructor.
+
+#include <cstdint>
+#include <memory>
+
+#include "core/estimator/bearing_residual.hpp"
+#include "core/estimator/block_table.hpp"
+#include "core/estimator/frame_id.hpp"
+#include "core/estimator/landmark_selection.hpp"
+#include "core/estimator/state_residuals.hpp"
+#include "core/estimator/visual_edges.hpp"
+#include "core/estimator/window.hpp"
+
+namespace ums {
+namespace solver {
+class Problem;
+}
+
+class LandmarkMap;
+class Marginalizer;
+class RelativePoseCache;
+struct EstimatorStats;
+
+struct ProblemBuilderOptions {
+  double weight_left = 1.0;   // 1/rad, whitening of left-camera bearing residuals
+  double weight_right = 1.0;  // 1/rad, right camera
+  double huber_rad = 1.0;     // Huber threshold in whitened units (huber_px / sigma_px)
+  double outlier_rad = 0.0;   // rad, observation error that marks an outlier (outlier_px / focal)
+  double min_depth_m = 0.1;
+  double max_depth_m = 60.0;
+  bool estimate_extrinsic = false;
+  double function_tolerance = 1e-3;
+  SelectionPolicy selection;
+  double still_sigma_m = 0.002, still_sigma_rad = 0.001, still_sigma_v = 0.01;
+};
+
+// What one solve contains.
+struct SolveSpec {
+  std::uint8_t groups = kAllGroups;  // landmark classes
+  bool imu = true;                   // IMU factors, bias prior, still constraints; else speed-bias fixed
+  bool prior = true;                 // the marginalization prior
+  bool fix_first_pose = false;       // vision only: the gauge
+};
+
+class ProblemBuilder {
+ public:
+  ProblemBuilder(const ProblemBuilderOptions& options, Window* window, LandmarkMap* landmarks,
+                 Marginalizer* marginalizer, EstimatorStats* stats);
+  ~ProblemBuilder();
+  ProblemBuilder(const ProblemBuilder&) = delete;
+  ProblemBuilder& operator=(const ProblemBuilder&) = delete;
+
+  // Builds and solves; false when the solver's result is not usable.
+  bool solve(const SolveSpec& spec, int max_iterations, double max_time_s, bool* converged = nullptr);
+  // Marks the landmarks of the last solve with an observation beyond outlier_rad (or a depth out
+  // of range: depth dropped, re-triangulated later); returns how many were marked.
+  int mark_outliers();
+
+  // The bias prior of the initialization, on the speed-bias of frame `id` while it is in the window.
+  void set_init_prior(const SpeedBiasPrior::Vector9& target, const SpeedBiasPrior::Vector9& sigma, FrameId id);
+  void clear_init_prior() { init_prior_frame_ = kNoFrame; }
+
+  // The last problem, for the marginalizer: the oldest frame's blocks and the landmarks it hosts.
+  solver::Problem& problem() { return *problem_; }
+  BlockTable& blocks() { return table_; }
+  int oldest_frame_blocks(int* ids) const;
+  int num_selected() const { return n_selected_; }
+  const Landmark& selected(int i) const;
+
+ private:
+  int build(const SolveSpec& spec);
+  void add_state_blocks(const SolveSpec& spec);
+  void add_landmarks(std::uint8_t groups);
+  bool add_landmark_edges(int pool_idx, int lm_block);
+  void add_imu_terms();
+  void add_marginal_prior();
+  int block_id(const EdgeBlock& b, int lm_block) const;
+
+  ProblemBuilderOptions options_;
+  Window* window_;
+  LandmarkMap* landmarks_;
+  Marginalizer* marginalizer_;
+  EstimatorStats* stats_;
+  std::unique_ptr<solver::Problem> problem_;
+  std::unique_ptr<RelativePoseCache> pose_cache_;
+  std::unique_ptr<BearingResidual[]> visual_;
+  int n_visual_ = 0;
+  std::unique_ptr<int[]> chosen_;              // pool indices of the landmarks in the problem
+  std::unique_ptr<int[]> block_of_landmark_;   // by pool index
+  int n_selected_ = 0;
+  BlockTable table_;
+  int pose_id_[Window::kSlots] = {};
+  int sb_id_[Window::kSlots] = {};
+  int ext_id_[2] = {};
+  SpeedBiasPrior init_prior_;
+  FrameId init_prior_frame_ = kNoFrame;
+  SpeedBiasPrior zero_velocity_;
+  StillResidual still_;
+};
+
+}  // namespace ums

@@ -1,0 +1,35 @@
+#include "core/estimator/visual_edges.hpp"
+
+#include "core/estimator/relative_pose_cache.hpp"
+
+namespace ums {
+
+int setup_visual_edge(const Landmark& l, const VisualEdge& e, double w, RelativePoseCache* cache,
+                      BearingResidual* r, EdgeBlock* blocks) {
+  const LandmarkObservation& o = l.obs[e.obs];
+  const int h = l.host_slot;
+  int nb = 0;
+  if (o.slot == h) {
+    r->set(BearingResidual::Kind::kSameFrame, false, l.b_host, e.b, w);
+    blocks[nb++] = EdgeBlock{EdgeBlock::kExtrinsic, l.host_cam};
+    blocks[nb++] = EdgeBlock{EdgeBlock::kExtrinsic, e.cam};
+  } else {
+    const bool same_cam = e.cam == l.host_cam;
+    r->set(BearingResidual::Kind::kTwoFrames, same_cam, l.b_host, e.b, w);
+    if (cache != nullptr) r->bind(cache, h, l.host_cam, o.slot, e.cam);
+    blocks[nb++] = EdgeBlock{EdgeBlock::kPose, h};
+    blocks[nb++] = EdgeBlock{EdgeBlock::kPose, o.slot};
+    blocks[nb++] = EdgeBlock{EdgeBlock::kExtrinsic, l.host_cam};
+    if (!same_cam) blocks[nb++] = EdgeBlock{EdgeBlock::kExtrinsic, e.cam};
+  }
+  blocks[nb++] = EdgeBlock{EdgeBlock::kInverseDepth, 0};
+  return nb;
+}
+
+int count_rays(const Landmark& l) {
+  int rays = 0;
+  for (int j = 0; j < l.n_obs; ++j) rays += static_cast<int>(l.obs[j].has_left) + static_cast<int>(l.obs[j].has_right);
+  return rays;
+}
+
+}  // namespace ums

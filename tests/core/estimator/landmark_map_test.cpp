@@ -1,0 +1,114 @@
+#include "core/estimator/landmark_map.hpp"
+
+#include <catch2/catch.hpp>
+#include <memory>
+
+#include "core/estimator/state_blocks.hpp"
+#include "core/estimator/window.hpp"
+
+namespace {
+
+// A stereo rig 0.11 m apart along x (cameras looking along the body z), frames 0.2 m apart in x.
+struct Scene {
+  ums::Window window{ums::PreintegrationOptions()};
+  std::unique_ptr<ums::FrameFeatures> ff = std::make_unique<ums::FrameFeatures>();
+  Scene() {
+    Eigen::Isometry3d T_b_c1 = Eigen::Isometry3d::Identity();
+    T_b_c1.translation().x() = 0.11;
+    window.extrinsics().set(Eigen::Isometry3d::Identity(), T_b_c1);
+  }
+  // Observations of points p_w from a new frame at x = x_m; stereo: both cameras.
+  int add_frame(double x_m, const Eigen::Vector3d* p_w, int n, bool stereo, ums::LandmarkMap* map) {
+    ums::WindowFrame& f = window.next();
+    ums::state::p(f.pose) = Eigen::Vector3d(x_m, 0, 0);
+    window.push_next();
+    const int slot = window.slot_of(f);
+    window.choose_next_slot();
+    ff->features.clear();
+    for (int i = 0; i < n; ++i) {
+      ums::FeatureObservation o;
+      o.id = static_cast<std::uint32_t>(i + 1);
+      o.cls = stereo ? ums::FeatureClass::k3D : ums::FeatureClass::k2DLeft;
+      const Eigen::Vector3d p0 = p_w[i] - Eigen::Vector3d(x_m, 0, 0);
+      o.bearing_left = p0.normalized().cast<float>();
+      o.bearing_right = (p0 - Eigen::Vector3d(0.11, 0, 0)).normalized().cast<float>();
+      ff->features.push_back(o);
+    }
+    return map->ingest(*ff, slot) == 0 ? slot : -1;
+  }
+};
+
+Eigen::Vector3d point(int i) { return Eigen::Vector3d(-1.0 + 0.1 * i, 0.5 - 0.05 * i, 4.0 + 0.2 * i); }
+
+}  // namespace
+
+TEST_CASE("LandmarkMap: triangulated points survive the host leaving (rehost), to float rounding", "[estimator][landmarks]") {
+  Scene s;
+  ums::LandmarkMap map{ums::LandmarkMapOptions()};
+  Eigen::Vector3d p[20];
+  for (int i = 0; i < 20; ++i) p[i] = point(i);
+  const int s0 = s.add_frame(0.0, p, 20, true, &map);
+  const int s1 = s.add_frame(0.2, p, 20, true, &map);
+  REQUIRE(s0 >= 0);
+  REQUIRE(s1 >= 0);
+  REQUIRE(map.size() == 20);
+  map.triangulate_all(s.window, -1);
+  for (int k = 0; k < map.size(); ++k) {
+    REQUIRE(map[k].has_depth);
+    CHECK(map[k].host_slot == s0);
+    CHECK((map.point_w(map[k], s.window) - p[map[k].id - 1]).norm() < 2e-3);  // float bearings, 4-5 m
+  }
+  Eigen::Vector3d before[20];
+  for (int k = 0; k < map.size(); ++k) before[k] = map.point_w(map[k], s.window);
+  map.remove_frame(s0, s.window);
+  s.window.erase(0);
+  REQUIRE(map.size() == 20);
+  for (int k = 0; k < map.size(); ++k) {
+    CHECK(map[k].host_slot == s1);
+    CHECK(map[k].n_obs == 1);
+    // The same point, new host: the new host ray is the observation's float bearing (~1e-8 rad).
+    CHECK((map.point_w(map[k], s.window) - before[k]).norm() < 1e-6);
+  }
+  // The last observation leaves: the landmarks leave the map and the pool is free again.
+  map.remove_frame(s1, s.window);
+  CHECK(map.size() == 0);
+}
+
+TEST_CASE("LandmarkMap: a full pool refuses new features and counts them; freed slots are reused", "[estimator][landmarks]") {
+  Scene s;
+  ums::LandmarkMap map{ums::LandmarkMapOptions()};
+  const int cap = ums::LandmarkMap::kCapacity;
+  ums::WindowFrame& f = s.window.next();
+  s.window.push_next();
+  const int slot = s.window.slot_of(f);
+  s.window.choose_next_slot();
+  int dropped = 0;
+  for (int batch = 0; batch < 2; ++batch) {
+    s.ff->features.clear();
+    for (int i = 0; i < 400; ++i) {
+      ums::FeatureObservation o;
+      o.id = static_cast<std::uint32_t>(batch * 400 + i + 1);
+      o.bearing_left = Eigen::Vector3f::UnitZ();
+      s.ff->features.push_back(o);
+    }
+    dropped += map.ingest(*s.ff, slot);
+  }
+  CHECK(map.size() == cap);
+  CHECK(dropped == 800 - cap);
+  CHECK(map.peak() == static_cast<std::size_t>(cap));
+  // Ids stay sorted and findable.
+  for (int k = 1; k < map.size(); ++k) CHECK(map[k].id > map[k - 1].id);
+  CHECK(map.find(1) >= 0);
+  CHECK(map.find(static_cast<std::uint32_t>(cap + 1)) < 0);
+  // Outliers leave at compaction and make room.
+  for (int k = 0; k < 10; ++k) map[k].outlier = true;
+  map.compact();
+  CHECK(map.size() == cap - 10);
+  s.ff->features.clear();
+  ums::FeatureObservation o;
+  o.id = 5000;
+  o.bearing_left = Eigen::Vector3f::UnitZ();
+  s.ff->features.push_back(o);
+  CHECK(map.ingest(*s.ff, slot) == 0);
+  CHECK(map.find(5000) >= 0);
+}

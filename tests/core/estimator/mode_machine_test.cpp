@@ -1,0 +1,45 @@
+#include "core/estimator/mode_machine.hpp"
+
+#include <catch2/catch.hpp>
+#include <string>
+
+using ums::EstimatorMode;
+using ums::ModeEvent;
+
+TEST_CASE("transition: the paper's mode machine, and nothing else", "[estimator][mode]") {
+  const EstimatorMode kImu = EstimatorMode::kImuOnly, kVo = EstimatorMode::kVo, kVio = EstimatorMode::kVio;
+  struct Row {
+    EstimatorMode from;
+    ModeEvent event;
+    EstimatorMode to;
+    const char* reason;  // nullptr: no change
+  };
+  const Row rows[] = {
+      {kImu, ModeEvent::kVisualInit, kVo, "visual init"},
+      {kImu, ModeEvent::kStandstill, kVio, "standstill"},
+      {kVo, ModeEvent::kStandstill, kVio, "standstill"},
+      {kVo, ModeEvent::kAlignment, kVio, "visual-imu alignment"},
+      {kVo, ModeEvent::kVisionLost, kImu, "vision lost in VO"},
+      {kVio, ModeEvent::kDivergence, kImu, "divergence"},
+      // Events that do not apply change nothing.
+      {kImu, ModeEvent::kAlignment, kImu, nullptr},
+      {kImu, ModeEvent::kVisionLost, kImu, nullptr},
+      {kImu, ModeEvent::kDivergence, kImu, nullptr},
+      {kVo, ModeEvent::kVisualInit, kVo, nullptr},
+      {kVo, ModeEvent::kDivergence, kVo, nullptr},
+      {kVio, ModeEvent::kVisualInit, kVio, nullptr},
+      {kVio, ModeEvent::kStandstill, kVio, nullptr},
+      {kVio, ModeEvent::kAlignment, kVio, nullptr},
+      {kVio, ModeEvent::kVisionLost, kVio, nullptr},
+      {kImu, ModeEvent::kNone, kImu, nullptr},
+      {kVo, ModeEvent::kNone, kVo, nullptr},
+      {kVio, ModeEvent::kNone, kVio, nullptr},
+  };
+  for (const Row& r : rows) {
+    const ums::ModeTransition t = ums::transition(r.from, r.event);
+    INFO(ums::to_string(r.from) << " event " << static_cast<int>(r.event));
+    CHECK(t.to == r.to);
+    CHECK(t.changed == (r.reason != nullptr));
+    if (r.reason != nullptr) CHECK(std::string(t.reason) == r.reason);
+  }
+}
