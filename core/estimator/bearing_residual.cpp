@@ -115,86 +115,101 @@ bool BearingResidual::error_rad(const double* const* parameters, double* error) 
   return true;
 }
 
-bool BearingResidual::evaluate(const double* const* parameters, double* residuals,
-                               const solver::JacobianView* jacobians) const {
-  const bool two_frames = kind_ == Kind::kTwoFrames;
-  const int k_ext_h = two_frames ? 2 : 0;
-  const int k_ext_t = two_frames ? (same_camera_ ? 2 : 3) : 1;
-  const int k_rho = num_blocks() - 1;
-  if (cache_ != nullptr && parameters[0] == cache_->frame(host_slot_) &&
-      parameters[1] == cache_->frame(target_slot_) && parameters[k_ext_h] == cache_->extrinsic(host_cam_) &&
-      parameters[k_ext_t] == cache_->extrinsic(target_cam_) &&
-      (jacobians == nullptr || (!jacobians[k_ext_h].wanted() && !jacobians[k_ext_t].wanted()))) {
-    return evaluate_cached(parameters, residuals, jacobians);
-  }
+namespace {
 
-  const double rho = parameters[k_rho][0];
-  if (!(rho > 1e-6) || !std::isfinite(rho)) return false;
-  const Pose ext_h = read_pose(parameters[k_ext_h]);
-  const Pose ext_t = read_pose(parameters[k_ext_t]);
+// The points and rotations of one evaluation, which the Jacobians reuse.
+struct Chain {
+  bool two_frames = false;
+  int k_ext_h = 0, k_ext_t = 0, k_rho = 0;  // parameter index of each block
+  double rho = 0.0;
+  Pose ext_h{}, ext_t{}, pose_h{}, pose_t{};
+  Eigen::Vector3d P_ch, P_bh, P_bt, P_ct;   // the point in host camera, host body, target body, target camera
+  Eigen::Matrix<double, 2, 3> D;            // d residual / d P_ct
+};
 
-  const Eigen::Vector3d P_ch = b_host_ / rho;
-  const Eigen::Vector3d P_bh = ext_h.R * P_ch + ext_h.p;
-  Eigen::Vector3d P_bt;
-  Pose pose_h{}, pose_t{};
-  if (two_frames) {
-    pose_h = read_pose(parameters[0]);
-    pose_t = read_pose(parameters[1]);
-    const Eigen::Vector3d P_w = pose_h.R * P_bh + pose_h.p;
-    P_bt = pose_t.R.transpose() * (P_w - pose_t.p);
-  } else {
-    P_bt = P_bh;
-  }
-  const Eigen::Vector3d P_ct = ext_t.R.transpose() * (P_bt - ext_t.p);
-  Eigen::Matrix<double, 2, 3> D;
-  if (!project(P_ct, residuals, jacobians == nullptr ? nullptr : &D)) return false;
-  if (jacobians == nullptr) return true;
-
-  const Eigen::Matrix3d R_ct_bt = ext_t.R.transpose();
-
-  const bool want_h = two_frames && jacobians[0].wanted();
-  const bool want_t = two_frames && jacobians[1].wanted();
-  const bool want_eh = jacobians[k_ext_h].wanted();
-  const bool want_et = jacobians[k_ext_t].wanted();
-  const bool want_rho = jacobians[k_rho].wanted();
+// d r / d (host pose, target pose, extrinsics, inverse depth) by the chain rule through P_ct.
+void write_jacobians(const Chain& c, const Eigen::Vector3d& b_host, const solver::JacobianView* jacobians) {
+  const Eigen::Matrix3d R_ct_bt = c.ext_t.R.transpose();
+  const bool want_h = c.two_frames && jacobians[0].wanted();
+  const bool want_t = c.two_frames && jacobians[1].wanted();
+  const bool want_eh = jacobians[c.k_ext_h].wanted();
+  const bool want_et = jacobians[c.k_ext_t].wanted();
+  const bool want_rho = jacobians[c.k_rho].wanted();
   // M maps a vector of host body coordinates into target camera coordinates.
   Eigen::Matrix3d R_ct_w = R_ct_bt;
   Eigen::Matrix3d M = R_ct_bt;
-  if (two_frames) {
-    R_ct_w = R_ct_bt * pose_t.R.transpose();
-    if (want_h || want_eh || want_rho) M = R_ct_w * pose_h.R;
+  if (c.two_frames) {
+    R_ct_w = R_ct_bt * c.pose_t.R.transpose();
+    if (want_h || want_eh || want_rho) M = R_ct_w * c.pose_h.R;
   }
   if (want_h) {
     Eigen::Matrix<double, 3, 6> d;
     d.leftCols<3>() = R_ct_w;
-    d.rightCols<3>() = -M * so3::hat(P_bh);
-    solver::jacobian_map<2, 6>(jacobians[0]) = D * d;
+    d.rightCols<3>() = -M * so3::hat(c.P_bh);
+    solver::jacobian_map<2, 6>(jacobians[0]) = c.D * d;
   }
   if (want_t) {
     Eigen::Matrix<double, 3, 6> d;
     d.leftCols<3>() = -R_ct_w;
-    d.rightCols<3>() = R_ct_bt * so3::hat(P_bt);
-    solver::jacobian_map<2, 6>(jacobians[1]) = D * d;
+    d.rightCols<3>() = R_ct_bt * so3::hat(c.P_bt);
+    solver::jacobian_map<2, 6>(jacobians[1]) = c.D * d;
   }
   // Extrinsics (constant unless estimated): host side moves P_bh, target side the target camera.
   if (want_eh || want_et) {
     Eigen::Matrix<double, 3, 6> d_h;
     d_h.leftCols<3>() = M;
-    d_h.rightCols<3>() = -M * ext_h.R * so3::hat(P_ch);
+    d_h.rightCols<3>() = -M * c.ext_h.R * so3::hat(c.P_ch);
     Eigen::Matrix<double, 3, 6> d_t;
     d_t.leftCols<3>() = -R_ct_bt;
-    d_t.rightCols<3>() = so3::hat(P_ct);
-    if (k_ext_h == k_ext_t) {
-      solver::jacobian_map<2, 6>(jacobians[k_ext_h]) = D * (d_h + d_t);
+    d_t.rightCols<3>() = so3::hat(c.P_ct);
+    if (c.k_ext_h == c.k_ext_t) {
+      solver::jacobian_map<2, 6>(jacobians[c.k_ext_h]) = c.D * (d_h + d_t);
     } else {
-      if (want_eh) solver::jacobian_map<2, 6>(jacobians[k_ext_h]) = D * d_h;
-      if (want_et) solver::jacobian_map<2, 6>(jacobians[k_ext_t]) = D * d_t;
+      if (want_eh) solver::jacobian_map<2, 6>(jacobians[c.k_ext_h]) = c.D * d_h;
+      if (want_et) solver::jacobian_map<2, 6>(jacobians[c.k_ext_t]) = c.D * d_t;
     }
   }
   if (want_rho) {
-    const Eigen::Vector3d d_rho = M * (ext_h.R * (-b_host_ / (rho * rho)));
-    solver::jacobian_map<2, 1>(jacobians[k_rho]) = D * d_rho;
+    const Eigen::Vector3d d_rho = M * (c.ext_h.R * (-b_host / (c.rho * c.rho)));
+    solver::jacobian_map<2, 1>(jacobians[c.k_rho]) = c.D * d_rho;
   }
+}
+
+}  // namespace
+
+bool BearingResidual::evaluate(const double* const* parameters, double* residuals,
+                               const solver::JacobianView* jacobians) const {
+  Chain c;
+  c.two_frames = kind_ == Kind::kTwoFrames;
+  c.k_ext_h = c.two_frames ? 2 : 0;
+  c.k_ext_t = c.two_frames ? (same_camera_ ? 2 : 3) : 1;
+  c.k_rho = num_blocks() - 1;
+  if (cache_ != nullptr && parameters[0] == cache_->frame(host_slot_) &&
+      parameters[1] == cache_->frame(target_slot_) && parameters[c.k_ext_h] == cache_->extrinsic(host_cam_) &&
+      parameters[c.k_ext_t] == cache_->extrinsic(target_cam_) &&
+      (jacobians == nullptr || (!jacobians[c.k_ext_h].wanted() && !jacobians[c.k_ext_t].wanted()))) {
+    return evaluate_cached(parameters, residuals, jacobians);
+  }
+
+  c.rho = parameters[c.k_rho][0];
+  if (!(c.rho > 1e-6) || !std::isfinite(c.rho)) return false;
+  c.ext_h = read_pose(parameters[c.k_ext_h]);
+  c.ext_t = read_pose(parameters[c.k_ext_t]);
+
+  c.P_ch = b_host_ / c.rho;
+  c.P_bh = c.ext_h.R * c.P_ch + c.ext_h.p;
+  if (c.two_frames) {
+    c.pose_h = read_pose(parameters[0]);
+    c.pose_t = read_pose(parameters[1]);
+    const Eigen::Vector3d P_w = c.pose_h.R * c.P_bh + c.pose_h.p;
+    c.P_bt = c.pose_t.R.transpose() * (P_w - c.pose_t.p);
+  } else {
+    c.P_bt = c.P_bh;
+  }
+  c.P_ct = c.ext_t.R.transpose() * (c.P_bt - c.ext_t.p);
+  if (!project(c.P_ct, residuals, jacobians == nullptr ? nullptr : &c.D)) return false;
+  if (jacobians == nullptr) return true;
+  write_jacobians(c, b_host_, jacobians);
   return true;
 }
 

@@ -105,19 +105,31 @@ std::uint32_t next_random(std::uint32_t* s) {
 
 }  // namespace
 
-PnpResult solve_pnp(const PnpMatch* matches, int n, const Eigen::Isometry3d* T_b_c,
-                    const PnpOptions& options, Eigen::Isometry3d* T_w_b, std::uint8_t* inlier_mask) {
-  PnpResult out;
-  if (n < options.min_inliers || n < options.sample_size) return out;
-  constexpr int kMaxMatches = 1024;
-  if (n > kMaxMatches) n = kMaxMatches;
-  int idx[kMaxMatches];
-  const Eigen::Isometry3d prior = *T_w_b;
-  Eigen::Isometry3d best = prior;
+namespace {
+
+constexpr int kMaxPnpMatches = 1024;
+
+// Matches within inlier_rad of their prediction at pose T (indices into idx when given).
+int count_inliers(const PnpMatch* matches, int n, const Eigen::Isometry3d* T_b_c, const Eigen::Isometry3d& T,
+                  double inlier_rad, int* idx) {
+  int m = 0;
+  const Eigen::Isometry3d T_c_w[2] = {(T * T_b_c[0]).inverse(), (T * T_b_c[1]).inverse()};
+  for (int k = 0; k < n; ++k) {
+    const double e = match_error(matches[k], T_c_w);
+    if (e >= 0.0 && e < inlier_rad) {
+      if (idx != nullptr) idx[m] = k;
+      ++m;
+    }
+  }
+  return m;
+}
+
+// RANSAC: the prior itself is the first hypothesis (a good IMU prediction needs no sampling),
+// then minimal samples fitted by Gauss-Newton; the pose with the most inliers, or -1.
+int ransac_pnp(const PnpMatch* matches, int n, const Eigen::Isometry3d* T_b_c, const PnpOptions& options,
+               const Eigen::Isometry3d& prior, Eigen::Isometry3d* best) {
   int best_inliers = -1;
   std::uint32_t rng = options.seed == 0 ? 1u : options.seed;
-
-  // The prior itself is the first hypothesis: a good IMU prediction needs no sampling.
   for (int it = 0; it <= options.ransac_iterations; ++it) {
     Eigen::Isometry3d T = prior;
     if (it > 0) {
@@ -133,27 +145,28 @@ PnpResult solve_pnp(const PnpMatch* matches, int n, const Eigen::Isometry3d* T_b
       }
       if (!gauss_newton(matches, sample, s, T_b_c, options.gn_iterations, &T)) continue;
     }
-    int inliers = 0;
-    const Eigen::Isometry3d T_c_w[2] = {(T * T_b_c[0]).inverse(), (T * T_b_c[1]).inverse()};
-    for (int k = 0; k < n; ++k) {
-      const double e = match_error(matches[k], T_c_w);
-      if (e >= 0.0 && e < options.inlier_rad) ++inliers;
-    }
+    const int inliers = count_inliers(matches, n, T_b_c, T, options.inlier_rad, nullptr);
     if (inliers > best_inliers) {
       best_inliers = inliers;
-      best = T;
+      *best = T;
     }
   }
-  if (best_inliers < options.min_inliers) return out;
+  return best_inliers;
+}
 
+}  // namespace
+
+PnpResult solve_pnp(const PnpMatch* matches, int n, const Eigen::Isometry3d* T_b_c,
+                    const PnpOptions& options, Eigen::Isometry3d* T_w_b, std::uint8_t* inlier_mask) {
+  PnpResult out;
+  if (n < options.min_inliers || n < options.sample_size) return out;
+  if (n > kMaxPnpMatches) n = kMaxPnpMatches;
+  int idx[kMaxPnpMatches];
+  Eigen::Isometry3d best = *T_w_b;
+  if (ransac_pnp(matches, n, T_b_c, options, *T_w_b, &best) < options.min_inliers) return out;
   // Refine on the inliers, re-select once with the refined pose.
   for (int pass = 0; pass < 2; ++pass) {
-    int m = 0;
-    const Eigen::Isometry3d T_c_w[2] = {(best * T_b_c[0]).inverse(), (best * T_b_c[1]).inverse()};
-    for (int k = 0; k < n; ++k) {
-      const double e = match_error(matches[k], T_c_w);
-      if (e >= 0.0 && e < options.inlier_rad) idx[m++] = k;
-    }
+    const int m = count_inliers(matches, n, T_b_c, best, options.inlier_rad, idx);
     if (m < options.min_inliers) return out;
     Eigen::Isometry3d T = best;
     if (!gauss_newton(matches, idx, m, T_b_c, options.gn_iterations, &T)) return out;

@@ -33,6 +33,27 @@ Status estimate_gyro_bias(const Eigen::Quaterniond* q_w_b, const Preintegration*
   return bg->allFinite() ? Status::kOk : Status::kSingular;
 }
 
+namespace {
+
+// Residual RMS of the position equations (m) at the fitted velocities and gravity: the quality
+// measure of the fit. R_alpha, dt_s: per interval, as the fit used them.
+double position_rms_m(const Eigen::Vector3d* p_w_b, const Preintegration* const* pre, int n,
+                      const Eigen::Vector3d* R_alpha, const double* dt_s, const GravityVelocity& fit) {
+  double sum = 0.0;
+  int rows = 0;
+  for (int k = 1; k < n; ++k) {
+    if (pre[k] == nullptr || pre[k]->num_samples() < 2) continue;
+    const double dt = dt_s[k];
+    const Eigen::Vector3d e =
+        p_w_b[k - 1] + fit.v_w[k - 1] * dt + 0.5 * fit.g_w * dt * dt + R_alpha[k] - p_w_b[k];
+    sum += e.squaredNorm();
+    rows += 3;
+  }
+  return std::sqrt(sum / std::max(rows, 1));
+}
+
+}  // namespace
+
 Status estimate_gravity_velocity(const Eigen::Vector3d* p_w_b, const Eigen::Quaterniond* q_w_b,
                                  const Preintegration* const* pre, int n, const Eigen::Vector3d& ba,
                                  const Eigen::Vector3d& bg, GravityVelocity* out) {
@@ -84,18 +105,7 @@ Status estimate_gravity_velocity(const Eigen::Vector3d* p_w_b, const Eigen::Quat
   if (!x.allFinite()) return Status::kSingular;
   for (int k = 0; k < n; ++k) out->v_w[k] = x.segment<3>(3 * k);
   out->g_w = x.segment<3>(ig);
-  // Residual RMS of the position equations (m), the quality measure of the fit.
-  double sum = 0.0;
-  int rows = 0;
-  for (int k = 1; k < n; ++k) {
-    if (pre[k] == nullptr || pre[k]->num_samples() < 2) continue;
-    const double dt = dt_s[k];
-    const Eigen::Vector3d e =
-        p_w_b[k - 1] + out->v_w[k - 1] * dt + 0.5 * out->g_w * dt * dt + R_alpha[k] - p_w_b[k];
-    sum += e.squaredNorm();
-    rows += 3;
-  }
-  out->rms_m = std::sqrt(sum / std::max(rows, 1));
+  out->rms_m = position_rms_m(p_w_b, pre, n, R_alpha, dt_s, *out);
   return Status::kOk;
 }
 
