@@ -139,7 +139,22 @@ class Problem {
     bool fixed = false;
   };
 
+  // ---- structure (problem_prepare.cpp) ----
+  // Ordering, residual groups, landmark couplings and segments, the tail envelope, workspace sizes.
   SolverStatus prepare();
+  void mark_landmark_coupled();
+  SolverStatus order_blocks();
+  void classify_residual(Residual& rb);
+  void group_residuals();
+  SolverStatus build_couplings();
+  SolverStatus collect_couplings(int l, int* ids, int* n_ids);
+  SolverStatus add_couplings(int l, const int* ids, int n_ids, int* v_used);
+  void merge_segments(int l, int n_ids);
+  void mark_fixed_priors();
+  void couple_tail(int ia, int ic);
+  void build_tail_envelope();
+  void resize_workspace();
+
   bool evaluate_residual(const Residual& rb, bool jacobians, double* r, double* cost);
   void accumulate_residual(int res_index, const double* r);
   void accumulate_two_row(const Residual& rb, const double* r);
@@ -147,6 +162,7 @@ class Problem {
   // Cost (and, with jacobians, H_, b_, landmark blocks) at the current values; false if not finite.
   bool linearize(bool jacobians, double* cost);
   double fixed_cost();
+
   // Solves the damped system (lm_scale = 1/radius; 0 for Gauss-Newton); false on failure.
   bool compute_step(double lm_scale, double* model_cost_change);
   // Factors S_ and solves S_ dx_ = -rhs_ (upper triangle of S_ read, overwritten); false on failure.
