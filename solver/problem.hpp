@@ -155,10 +155,16 @@ class Problem {
   void build_tail_envelope();
   void resize_workspace();
 
+  // ---- linearization (problem_linearize.cpp) ----
   bool evaluate_residual(const Residual& rb, bool jacobians, double* r, double* cost);
   void accumulate_residual(int res_index, const double* r);
   void accumulate_two_row(const Residual& rb, const double* r);
+  int accumulate_reduced(const Residual& rb, const double* r);
+  void accumulate_landmark1(const Residual& rb, int l, const double* Jl, const double* r);
+  void accumulate_landmark(const Residual& rb, int l, const double* Jl, const double* r);
   bool linearize_prior(const PriorRef& p, bool jacobians, double* cost);
+  void zero_linear_system();
+  bool linear_system_finite() const;
   // Cost (and, with jacobians, H_, b_, landmark blocks) at the current values; false if not finite.
   bool linearize(bool jacobians, double* cost);
   double fixed_cost();
