@@ -139,6 +139,8 @@ class Problem {
     bool fixed = false;
   };
 
+  struct LmState;       // one solve(): trust-region state and summary (problem_solve.cpp)
+
   // ---- structure (problem_prepare.cpp) ----
   // Ordering, residual groups, landmark couplings and segments, the tail envelope, workspace sizes.
   SolverStatus prepare();
@@ -169,11 +171,31 @@ class Problem {
   bool linearize(bool jacobians, double* cost);
   double fixed_cost();
 
+  // ---- Levenberg-Marquardt (problem_solve.cpp) ----
+  bool start_solve(LmState& s);
+  void set_jacobi_scaling(bool jacobi);
+  bool iterate(LmState& s);
+  bool can_continue(LmState& s);
+  bool reject_invalid_step(LmState& s);
+  double apply_candidate();
+  void restore_values();
+  bool candidate_converged(LmState& s, double step_norm, double cand_cost);
+  bool accept_step(LmState& s, double cand_cost, double relative_decrease);
   // Solves the damped system (lm_scale = 1/radius; 0 for Gauss-Newton); false on failure.
   bool compute_step(double lm_scale, double* model_cost_change);
+  void form_reduced_system(double lm_scale, bool damp);
+  void eliminate_landmark(int l, double lm_scale, MatrixMap S, DenseVector& rhs, bool damp);
+  void eliminate_landmark1(int l, double lm_scale, MatrixMap S, DenseVector& rhs, bool damp);
+  void schur_update1(int l, double w, double wg, MatrixMap S, DenseVector& rhs) const;
+  void eliminate_landmark_block(int l, double lm_scale, MatrixMap S, DenseVector& rhs, bool damp);
   // Factors S_ and solves S_ dx_ = -rhs_ (upper triangle of S_ read, overwritten); false on failure.
   bool factor_and_solve();
-  void eliminate_landmark(int l, double lm_scale, MatrixMap S, DenseVector& rhs, bool damp);
+  bool factor_and_solve_dense();
+  bool factor_tail();
+  void solve_tail_forward();
+  void solve_tail_backward();
+  void back_substitute(int l);
+  void add_landmark_model_terms(int l, double lm_scale, bool damp, double* gdx, double* dDd) const;
   double gradient_max_norm() const;
   double variable_x_norm() const;
 
