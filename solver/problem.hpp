@@ -140,6 +140,7 @@ class Problem {
   };
 
   struct LmState;       // one solve(): trust-region state and summary (problem_solve.cpp)
+  struct MarginalRows;  // one marginalize(): its row partition (problem_marginalize.cpp)
 
   // ---- structure (problem_prepare.cpp) ----
   // Ordering, residual groups, landmark couplings and segments, the tail envelope, workspace sizes.
@@ -198,6 +199,15 @@ class Problem {
   void add_landmark_model_terms(int l, double lm_scale, bool damp, double* gdx, double* dDd) const;
   double gradient_max_norm() const;
   double variable_x_norm() const;
+
+  // ---- marginalization (problem_marginalize.cpp) ----
+  bool touches_marginalized(const Residual& rb) const;
+  SolverStatus select_marginalized(const BlockId* ids, int n);
+  SolverStatus linearize_marginalized();
+  bool linearize_marginalized_landmark(int l);
+  SolverStatus partition_marginal_rows(MarginalRows* rows);
+  void gather_marginal_system(const MarginalRows& rows);
+  SolverStatus schur_marginalized(int dm, int dk);
 
   // Problem definition.
   Block blocks_[capacity::kMaxParameterBlocks];
