@@ -5,41 +5,36 @@
 
 namespace ums::solver {
 
-SolverStatus MarginalPrior::set_from_information(const PriorBlock* blocks, int num_blocks,
-                                                 const Eigen::Ref<const Eigen::MatrixXd>& H,
-                                                 const Eigen::Ref<const Eigen::VectorXd>& b) {
-  clear();
+namespace {
+
+// Block layout (consecutive offsets, tangent sizes of their manifolds), capacity, sizes, and
+// finite values in H's upper triangle and b. *dim: the prior's dimension.
+SolverStatus check_information(const PriorBlock* blocks, int num_blocks,
+                               const Eigen::Ref<const Eigen::MatrixXd>& H,
+                               const Eigen::Ref<const Eigen::VectorXd>& b, int* dim) {
   if (num_blocks < 0) return SolverStatus::kInvalidInput;
   if (num_blocks > capacity::kMaxReducedBlocks) return SolverStatus::kFull;
-  int dim = 0;
+  *dim = 0;
   for (int i = 0; i < num_blocks; ++i) {
-    if (blocks[i].offset != dim ||
+    if (blocks[i].offset != *dim ||
         blocks[i].tangent_size != tangent_size(blocks[i].manifold, blocks[i].ambient_size))
       return SolverStatus::kInvalidInput;
-    dim += blocks[i].tangent_size;
+    *dim += blocks[i].tangent_size;
   }
-  if (dim > capacity::kMaxReducedDim) return SolverStatus::kFull;
-  if (H.rows() != dim || H.cols() != dim || b.size() != dim) return SolverStatus::kInvalidInput;
-  for (int c = 0; c < dim; ++c) {
+  if (*dim > capacity::kMaxReducedDim) return SolverStatus::kFull;
+  if (H.rows() != *dim || H.cols() != *dim || b.size() != *dim) return SolverStatus::kInvalidInput;
+  for (int c = 0; c < *dim; ++c) {
     if (!std::isfinite(b[c])) return SolverStatus::kInvalidInput;
     for (int r = 0; r <= c; ++r)
       if (!std::isfinite(H(r, c))) return SolverStatus::kInvalidInput;
   }
+  return SolverStatus::kOk;
+}
 
-  // Jacobi scaling makes the rank test unit-free (poses, velocities and biases differ by many
-  // orders of magnitude): Hs = D^-1/2 H D^-1/2 with D = diag(H).
-  DenseVector sqrt_d(dim);
-  for (int i = 0; i < dim; ++i) sqrt_d[i] = H(i, i) > 0.0 ? std::sqrt(H(i, i)) : 1.0;
-  H0_.resize(dim, dim);
-  MatrixMap W = H0_.m();  // workspace: the scaled matrix, then its pivoted factor
-  for (int j = 0; j < dim; ++j)
-    for (int i = 0; i <= j; ++i) {
-      W(i, j) = H(i, j) / (sqrt_d[i] * sqrt_d[j]);
-      W(j, i) = W(i, j);
-    }
-  // Pivoted outer-product Cholesky: P^T Hs P = U^T U, stopping at the numerical rank (a pivot
-  // below 1e-12 of the unit diagonal carries no information: gauge directions, unobserved blocks).
-  int perm[capacity::kMaxReducedDim];
+// Pivoted outer-product Cholesky in place: P^T W P = U^T U (U in W's upper rows, P in perm),
+// stopping at the numerical rank (a pivot below 1e-12 of the unit diagonal carries no
+// information: gauge directions, unobserved blocks). Returns the rank.
+int pivoted_cholesky(MatrixMap W, int dim, int* perm) {
   for (int i = 0; i < dim; ++i) perm[i] = i;
   DenseVector row(dim);
   int rank = 0;
@@ -61,21 +56,53 @@ SolverStatus MarginalPrior::set_from_information(const PriorBlock* blocks, int n
     W.bottomRightCorner(m, m).noalias() -= row.head(m) * row.head(m).transpose();
     rank = k + 1;
   }
-  // J = U P^T D^1/2 (rows >= rank are zero); J^T r0 = b <=> U^T r0 = P^T D^-1/2 b.
-  J_.resize(dim, dim);
-  MatrixMap J = J_.m();
+  return rank;
+}
+
+// J = U P^T D^1/2 (rows >= rank are zero); J^T r0 = b <=> U^T r0 = P^T D^-1/2 b.
+void unscale_factor(MatrixMap W, const DenseVector& sqrt_d, const int* perm, int rank,
+                    const Eigen::Ref<const Eigen::VectorXd>& b, MatrixMap J, DenseVector& r0) {
+  const int dim = static_cast<int>(sqrt_d.size());
   J.setZero();
-  r0_.resize(dim);
-  r0_.setZero();
+  r0.resize(dim);
+  r0.setZero();
   for (int k = 0; k < rank; ++k) {
-    r0_[k] = b[perm[k]] / sqrt_d[perm[k]];
-    for (int i = 0; i < k; ++i) r0_[k] -= W(i, k) * r0_[i];
-    r0_[k] /= W(k, k);
+    r0[k] = b[perm[k]] / sqrt_d[perm[k]];
+    for (int i = 0; i < k; ++i) r0[k] -= W(i, k) * r0[i];
+    r0[k] /= W(k, k);
   }
   for (int j = 0; j < dim; ++j) {
     const int c = perm[j];
     for (int i = 0; i <= j && i < rank; ++i) J(i, c) = W(i, j) * sqrt_d[c];
   }
+}
+
+}  // namespace
+
+SolverStatus MarginalPrior::set_from_information(const PriorBlock* blocks, int num_blocks,
+                                                 const Eigen::Ref<const Eigen::MatrixXd>& H,
+                                                 const Eigen::Ref<const Eigen::VectorXd>& b) {
+  clear();
+  int dim = 0;
+  const SolverStatus st = check_information(blocks, num_blocks, H, b, &dim);
+  if (st != SolverStatus::kOk) return st;
+
+  // Jacobi scaling makes the rank test unit-free (poses, velocities and biases differ by many
+  // orders of magnitude): Hs = D^-1/2 H D^-1/2 with D = diag(H).
+  DenseVector sqrt_d(dim);
+  for (int i = 0; i < dim; ++i) sqrt_d[i] = H(i, i) > 0.0 ? std::sqrt(H(i, i)) : 1.0;
+  H0_.resize(dim, dim);
+  MatrixMap W = H0_.m();  // workspace: the scaled matrix, then its pivoted factor
+  for (int j = 0; j < dim; ++j)
+    for (int i = 0; i <= j; ++i) {
+      W(i, j) = H(i, j) / (sqrt_d[i] * sqrt_d[j]);
+      W(j, i) = W(i, j);
+    }
+  int perm[capacity::kMaxReducedDim];
+  const int rank = pivoted_cholesky(W, dim, perm);
+  J_.resize(dim, dim);
+  MatrixMap J = J_.m();
+  unscale_factor(W, sqrt_d, perm, rank, b, J, r0_);
   // H0 = J^T J, exactly the information the prior applies.
   for (int j = 0; j < dim; ++j)
     for (int i = 0; i <= j; ++i) {

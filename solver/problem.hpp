@@ -139,21 +139,75 @@ class Problem {
     bool fixed = false;
   };
 
+  struct LmState;       // one solve(): trust-region state and summary (problem_solve.cpp)
+  struct MarginalRows;  // one marginalize(): its row partition (problem_marginalize.cpp)
+
+  // ---- structure (problem_prepare.cpp) ----
+  // Ordering, residual groups, landmark couplings and segments, the tail envelope, workspace sizes.
   SolverStatus prepare();
+  void mark_landmark_coupled();
+  SolverStatus order_blocks();
+  void classify_residual(Residual& rb);
+  void group_residuals();
+  SolverStatus build_couplings();
+  SolverStatus collect_couplings(int l, int* ids, int* n_ids);
+  SolverStatus add_couplings(int l, const int* ids, int n_ids, int* v_used);
+  void merge_segments(int l, int n_ids);
+  void mark_fixed_priors();
+  void couple_tail(int ia, int ic);
+  void build_tail_envelope();
+  void resize_workspace();
+
+  // ---- linearization (problem_linearize.cpp) ----
   bool evaluate_residual(const Residual& rb, bool jacobians, double* r, double* cost);
   void accumulate_residual(int res_index, const double* r);
   void accumulate_two_row(const Residual& rb, const double* r);
+  int accumulate_reduced(const Residual& rb, const double* r);
+  void accumulate_landmark1(const Residual& rb, int l, const double* Jl, const double* r);
+  void accumulate_landmark(const Residual& rb, int l, const double* Jl, const double* r);
   bool linearize_prior(const PriorRef& p, bool jacobians, double* cost);
+  void zero_linear_system();
+  bool linear_system_finite() const;
   // Cost (and, with jacobians, H_, b_, landmark blocks) at the current values; false if not finite.
   bool linearize(bool jacobians, double* cost);
   double fixed_cost();
+
+  // ---- Levenberg-Marquardt (problem_solve.cpp) ----
+  bool start_solve(LmState& s);
+  void set_jacobi_scaling(bool jacobi);
+  bool iterate(LmState& s);
+  bool can_continue(LmState& s);
+  bool reject_invalid_step(LmState& s);
+  double apply_candidate();
+  void restore_values();
+  bool candidate_converged(LmState& s, double step_norm, double cand_cost);
+  bool accept_step(LmState& s, double cand_cost, double relative_decrease);
   // Solves the damped system (lm_scale = 1/radius; 0 for Gauss-Newton); false on failure.
   bool compute_step(double lm_scale, double* model_cost_change);
+  void form_reduced_system(double lm_scale, bool damp);
+  void eliminate_landmark(int l, double lm_scale, MatrixMap S, DenseVector& rhs, bool damp);
+  void eliminate_landmark1(int l, double lm_scale, MatrixMap S, DenseVector& rhs, bool damp);
+  void schur_update1(int l, double w, double wg, MatrixMap S, DenseVector& rhs) const;
+  void eliminate_landmark_block(int l, double lm_scale, MatrixMap S, DenseVector& rhs, bool damp);
   // Factors S_ and solves S_ dx_ = -rhs_ (upper triangle of S_ read, overwritten); false on failure.
   bool factor_and_solve();
-  void eliminate_landmark(int l, double lm_scale, MatrixMap S, DenseVector& rhs, bool damp);
+  bool factor_and_solve_dense();
+  bool factor_tail();
+  void solve_tail_forward();
+  void solve_tail_backward();
+  void back_substitute(int l);
+  void add_landmark_model_terms(int l, double lm_scale, bool damp, double* gdx, double* dDd) const;
   double gradient_max_norm() const;
   double variable_x_norm() const;
+
+  // ---- marginalization (problem_marginalize.cpp) ----
+  bool touches_marginalized(const Residual& rb) const;
+  SolverStatus select_marginalized(const BlockId* ids, int n);
+  SolverStatus linearize_marginalized();
+  bool linearize_marginalized_landmark(int l);
+  SolverStatus partition_marginal_rows(MarginalRows* rows);
+  void gather_marginal_system(const MarginalRows& rows);
+  SolverStatus schur_marginalized(int dm, int dk);
 
   // Problem definition.
   Block blocks_[capacity::kMaxParameterBlocks];

@@ -1,0 +1,379 @@
+// Linearization (docs/solver.md, "Linearization"): residuals evaluated with their robust loss,
+// accumulated into the reduced H (upper triangle) and b = J^T r, per landmark H_ll, g_l and the
+// couplings V; the marginalization prior's H and g; the cost passes (candidate, fixed cost).
+#include "solver/problem.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+#include "solver/finite.hpp"
+
+namespace ums::solver {
+namespace {
+
+using RowMat = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor,
+                             capacity::kMaxResidualSize, capacity::kMaxBlockTangentSize>;
+using ConstRowMap = Eigen::Map<const RowMat>;
+
+// H(oa.., ob..) += Ja^T Jb for two row-major Jacobian blocks of `rows` rows. The 2 x 6 case
+// (reprojection vs pose/extrinsic) dominates and gets a fixed-size path.
+__attribute__((always_inline)) inline void add_jtj(MatrixMap H, int oa, int ob, const double* Ja, int ta, const double* Jb,
+                    int tb, int rows) {
+  if (rows == 2 && ta == 6 && tb == 6) {
+    const Eigen::Map<const Eigen::Matrix<double, 2, 6, Eigen::RowMajor>> A(Ja);
+    const Eigen::Map<const Eigen::Matrix<double, 2, 6, Eigen::RowMajor>> B(Jb);
+    H.block<6, 6>(oa, ob).noalias() += A.transpose() * B;
+    return;
+  }
+  const ConstRowMap A(Ja, rows, ta);
+  const ConstRowMap B(Jb, rows, tb);
+  H.block(oa, ob, ta, tb) += A.transpose().lazyProduct(B);
+}
+
+inline void add_jtr(DenseVector& b, int o, const double* J, int t, const double* r, int rows) {
+  if (rows == 2 && t == 6) {
+    const Eigen::Map<const Eigen::Matrix<double, 2, 6, Eigen::RowMajor>> A(J);
+    b.segment<6>(o).noalias() += A.transpose() * Eigen::Map<const Eigen::Vector2d>(r);
+    return;
+  }
+  const ConstRowMap A(J, rows, t);
+  b.segment(o, t) += A.transpose().lazyProduct(Eigen::Map<const Eigen::VectorXd>(r, rows));
+}
+
+// Two doubles in one SSE2 / NEON register. GCC's vector extension rather than Eigen's Vector2d:
+// its lane-wise ops round alike on every architecture and stay SIMD when Eigen is built scalar
+// for cross-architecture determinism (UMS_PORTABLE_FP).
+typedef double Pair __attribute__((vector_size(16)));
+
+inline Pair load_pair(const double* p) {
+  Pair v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+
+// col[0..N) += a0 * b0 + a1 * b1: one column of a 2-row J^T J block in whole packets of 2.
+// Written with explicit packets because GCC's own vectorizer turns the unrolled triangle into
+// scalar code.
+template <int N>
+__attribute__((always_inline)) inline void col_update2(double* col, const Pair* a0, const Pair* a1, double b0,
+                                                       double b1) {
+  const Pair vb0 = {b0, b0}, vb1 = {b1, b1};
+  for (int i = 0; i < N / 2; ++i) {
+    const Pair c = load_pair(col + 2 * i) + (a0[i] * vb0 + a1[i] * vb1);
+    std::memcpy(col + 2 * i, &c, sizeof c);
+  }
+}
+
+// H(0..6, 0..6) += A^T C for 2 x 6 row-major A, C; H column-major with leading dimension ld.
+// Upper = true (C == A, a diagonal block): only the upper triangle, rounded up to whole packets of
+// 2 rows (the few lower entries written are never read). A is held in registers across columns.
+template <bool Upper>
+__attribute__((always_inline)) inline void add_jtj_2x6(double* Hb, Eigen::Index ld, const double* A,
+                                                       const double* C) {
+  Pair a0[3], a1[3];
+  for (int i = 0; i < 3; ++i) {
+    a0[i] = load_pair(A + 2 * i);
+    a1[i] = load_pair(A + 6 + 2 * i);
+  }
+  if constexpr (Upper) {
+    col_update2<2>(Hb, a0, a1, A[0], A[6]);
+    col_update2<2>(Hb + ld, a0, a1, A[1], A[7]);
+    col_update2<4>(Hb + 2 * ld, a0, a1, A[2], A[8]);
+    col_update2<4>(Hb + 3 * ld, a0, a1, A[3], A[9]);
+    col_update2<6>(Hb + 4 * ld, a0, a1, A[4], A[10]);
+    col_update2<6>(Hb + 5 * ld, a0, a1, A[5], A[11]);
+  } else {
+    for (int j = 0; j < 6; ++j) col_update2<6>(Hb + j * ld, a0, a1, C[j], C[6 + j]);
+  }
+}
+
+}  // namespace
+
+bool Problem::evaluate_residual(const Residual& rb, bool jacobians, double* r, double* cost) {
+  JacobianView jv[capacity::kMaxBlocksPerResidual];
+  for (int j = 0; j < rb.num_blocks; ++j) {
+    jac_wanted_[j] = jacobians && rb.variable[j];
+    jv[j].data = jac_wanted_[j] ? jac_ws_[j] : nullptr;
+    jv[j].row_stride = rb.tangent[j];
+  }
+  if (!rb.fn->evaluate(rb.params, r, jv)) return false;
+  const int rows = rb.rows;
+  double sq = 0.0;
+  for (int i = 0; i < rows; ++i) sq += r[i] * r[i];
+  if (!std::isfinite(sq)) return false;
+  // Non-finite Jacobians are caught once per linearization (NaN/Inf propagate into H, b, V).
+  if (rb.loss.type == LossType::kTrivial) {
+    *cost = 0.5 * sq;
+    return true;
+  }
+  double rho[3];
+  rb.loss.evaluate(sq, rho);
+  *cost = 0.5 * rho[0];
+  // Inside Huber's quadratic region (and whenever rho' = 1, rho'' = 0) the correction is the
+  // identity: skip the multiplications by 1 (bit-identical result).
+  if (jacobians && !(rho[1] == 1.0 && rho[2] == 0.0)) {
+    const LossCorrector corrector(sq, rho);
+    for (int j = 0; j < rb.num_blocks; ++j) {
+      if (!jac_wanted_[j]) continue;
+      const int t = blocks_[rb.blocks[j]].tangent;
+      corrector.correct_jacobian(rows, t, t, r, jac_ws_[j]);
+    }
+    corrector.correct_residual(rows, r);
+  }
+  return std::isfinite(*cost);
+}
+
+// The dominant case (a 2-row reprojection over 6-dof blocks and one inverse depth), with every
+// block product fixed-size and the blocks pre-sorted by row so each lands in the upper triangle.
+void Problem::accumulate_two_row(const Residual& rb, const double* r) {
+  using J26 = Eigen::Map<const Eigen::Matrix<double, 2, 6, Eigen::RowMajor>>;
+  const Eigen::Map<const Eigen::Vector2d> rv(r);
+  MatrixMap H = H_.m();
+  const Eigen::Index ld = H.outerStride();
+  const double* Jl = rb.lm_pos >= 0 ? jac_ws_[rb.lm_pos] : nullptr;
+  const int n = rb.num_sorted;
+  for (int a = 0; a < n; ++a) {
+    const int ka = rb.sorted[a];
+    const int oa = blocks_[rb.blocks[ka]].index;
+    const J26 A(jac_ws_[ka]);
+    b_.segment<6>(oa).noalias() += A.transpose() * rv;
+    // Diagonal block (upper triangle only), then the blocks to its right.
+    add_jtj_2x6<true>(H.data() + oa * ld + oa, ld, jac_ws_[ka], jac_ws_[ka]);
+    for (int c = a + 1; c < n; ++c) {
+      const int kc = rb.sorted[c];
+      add_jtj_2x6<false>(H.data() + blocks_[rb.blocks[kc]].index * ld + oa, ld, jac_ws_[ka],
+                         jac_ws_[kc]);
+    }
+    if (Jl != nullptr)
+      Eigen::Map<Eigen::Matrix<double, 6, 1>>(v_ + cpl_v_[rb.slot[ka]]).noalias() +=
+          A.transpose() * Eigen::Map<const Eigen::Vector2d>(Jl);
+  }
+  if (Jl != nullptr) {
+    const int l = rb.landmark;
+    Hll_[l][0] += Jl[0] * Jl[0] + Jl[1] * Jl[1];
+    gl_[l][0] += Jl[0] * r[0] + Jl[1] * r[1];
+  }
+}
+
+// J^T J, J^T r of one residual into H, b and its landmark's H_ll, g_l, V (touched_ marks blocks).
+void Problem::accumulate_residual(int res_index, const double* r) {
+  const Residual& rb = residuals_[res_index];
+  const int rows = rb.rows;
+  if (rows == 2 && rb.fast2) {
+    // marginalize() keeps exactly the touched blocks: the fast path must mark them too.
+    for (int a = 0; a < rb.num_blocks; ++a)
+      if (jac_wanted_[a]) touched_[rb.blocks[a]] = true;
+    accumulate_two_row(rb, r);
+    return;
+  }
+  const int lm_j = accumulate_reduced(rb, r);
+  if (lm_j < 0) return;
+  const int l = blocks_[rb.blocks[lm_j]].index;
+  if (lm_dim_[l] == 1)
+    accumulate_landmark1(rb, l, jac_ws_[lm_j], r);
+  else
+    accumulate_landmark(rb, l, jac_ws_[lm_j], r);
+}
+
+// General path, reduced blocks: b += J_a^T r, H(a, c) += J_a^T J_c (upper triangle). Returns the
+// position of the variable eliminated block, or -1.
+int Problem::accumulate_reduced(const Residual& rb, const double* r) {
+  const int rows = rb.rows;
+  int lm_j = -1;
+  for (int a = 0; a < rb.num_blocks; ++a) {
+    if (!jac_wanted_[a]) continue;
+    const Block& ba = blocks_[rb.blocks[a]];
+    touched_[rb.blocks[a]] = true;
+    if (ba.eliminate) {
+      lm_j = a;
+      continue;
+    }
+    add_jtr(b_, ba.index, jac_ws_[a], ba.tangent, r, rows);
+    for (int c = a; c < rb.num_blocks; ++c) {
+      if (!jac_wanted_[c]) continue;
+      const Block& bc = blocks_[rb.blocks[c]];
+      if (bc.eliminate) continue;
+      if (ba.index <= bc.index)
+        add_jtj(H_.m(), ba.index, bc.index, jac_ws_[a], ba.tangent, jac_ws_[c], bc.tangent, rows);
+      else
+        add_jtj(H_.m(), bc.index, ba.index, jac_ws_[c], bc.tangent, jac_ws_[a], ba.tangent, rows);
+    }
+  }
+  return lm_j;
+}
+
+// General path, 1-dof landmark l with Jacobian column Jl: H_ll, g_l and V = J_B^T J_l.
+void Problem::accumulate_landmark1(const Residual& rb, int l, const double* Jl, const double* r) {
+  const int rows = rb.rows;
+  double h = 0.0, g = 0.0;
+  for (int i = 0; i < rows; ++i) {
+    h += Jl[i] * Jl[i];
+    g += Jl[i] * r[i];
+  }
+  Hll_[l][0] += h;
+  gl_[l][0] += g;
+  for (int a = 0; a < rb.num_blocks; ++a) {
+    if (rb.slot[a] < 0 || !jac_wanted_[a]) continue;
+    const int t = blocks_[rb.blocks[a]].tangent;
+    double* v = v_ + cpl_v_[rb.slot[a]];
+    const double* Ja = jac_ws_[a];
+    if (rows == 2 && t == 6) {
+      Eigen::Map<Eigen::Matrix<double, 6, 1>>(v).noalias() +=
+          Eigen::Map<const Eigen::Matrix<double, 2, 6, Eigen::RowMajor>>(Ja).transpose() *
+          Eigen::Map<const Eigen::Vector2d>(Jl);
+      continue;
+    }
+    for (int i = 0; i < rows; ++i)
+      for (int c = 0; c < t; ++c) v[c] += Ja[i * t + c] * Jl[i];
+  }
+}
+
+// General path, landmark l of e = 2 or 3 dofs (Jl: rows x e row-major): H_ll, g_l, V.
+void Problem::accumulate_landmark(const Residual& rb, int l, const double* Jl, const double* r) {
+  const int rows = rb.rows;
+  const int e = lm_dim_[l];
+  for (int p = 0; p < e; ++p) {
+    for (int q = 0; q < e; ++q) {
+      double h = 0.0;
+      for (int i = 0; i < rows; ++i) h += Jl[i * e + p] * Jl[i * e + q];
+      Hll_[l][p * e + q] += h;
+    }
+    double g = 0.0;
+    for (int i = 0; i < rows; ++i) g += Jl[i * e + p] * r[i];
+    gl_[l][p] += g;
+  }
+  for (int a = 0; a < rb.num_blocks; ++a) {
+    if (rb.slot[a] < 0 || !jac_wanted_[a]) continue;
+    const int t = blocks_[rb.blocks[a]].tangent;
+    double* v = v_ + cpl_v_[rb.slot[a]];  // t x e row-major
+    const double* Ja = jac_ws_[a];
+    for (int i = 0; i < rows; ++i)
+      for (int c = 0; c < t; ++c)
+        for (int q = 0; q < e; ++q) v[c * e + q] += Ja[i * t + c] * Jl[i * e + q];
+  }
+}
+
+bool Problem::linearize_prior(const PriorRef& p, bool jacobians, double* cost) {
+  const MarginalPrior& prior = *p.prior;
+  const int dim = prior.dim();
+  const double* xs[capacity::kMaxReducedBlocks];
+  for (int i = 0; i < prior.num_blocks(); ++i) xs[i] = blocks_[p.blocks[i]].x;
+  Eigen::Matrix3d rot[capacity::kMaxReducedBlocks];
+  pe_.resize(dim);
+  pr_.resize(dim);
+  prior.tangent_error(xs, pe_.data(), rot);
+  pr_ = prior.r0();
+  pr_.noalias() += prior.sqrt_information() * pe_;
+  *cost = 0.5 * pr_.squaredNorm();
+  if (!std::isfinite(*cost)) return false;
+  if (!jacobians) return true;
+  // d r / d delta_k = J[:, k] B_k; H = B^T (J^T J) B, g = B^T J^T r, with B block-diagonal.
+  pe_.noalias() = prior.sqrt_information().transpose() * pr_;
+  M_.resize(dim, dim);
+  M_.m() = prior.information();
+  int k = 0;
+  for (int i = 0; i < prior.num_blocks(); ++i) {
+    const PriorBlock& pb = prior.block(i);
+    if (pb.manifold != ManifoldType::kPose) continue;
+    const int o = pb.offset + 3;
+    const Eigen::Matrix3d R = rot[k++];
+    pe_.segment<3>(o) = (R.transpose() * pe_.segment<3>(o)).eval();
+    for (int c = 0; c < dim; ++c) M_.m().block<3, 1>(o, c) = (R.transpose() * M_.m().block<3, 1>(o, c)).eval();
+    for (int rr = 0; rr < dim; ++rr) M_.m().block<1, 3>(rr, o) = (M_.m().block<1, 3>(rr, o) * R).eval();
+  }
+  for (int i = 0; i < prior.num_blocks(); ++i) {
+    const Block& bi = blocks_[p.blocks[i]];
+    if (bi.constant) continue;
+    touched_[p.blocks[i]] = true;
+    const PriorBlock& pi = prior.block(i);
+    b_.segment(bi.index, bi.tangent) += pe_.segment(pi.offset, pi.tangent_size);
+    for (int j = 0; j < prior.num_blocks(); ++j) {
+      const Block& bj = blocks_[p.blocks[j]];
+      if (bj.constant || bj.index < bi.index) continue;
+      const PriorBlock& pj = prior.block(j);
+      H_.m().block(bi.index, bj.index, bi.tangent, bj.tangent) +=
+          M_.m().block(pi.offset, pj.offset, pi.tangent_size, pj.tangent_size);
+    }
+  }
+  return true;
+}
+
+void Problem::zero_linear_system() {
+  H_.m().setZero();
+  b_.setZero();
+  for (int l = 0; l < num_lm_; ++l) {
+    for (int i = 0; i < 9; ++i) Hll_[l][i] = 0.0;
+    for (int i = 0; i < 3; ++i) gl_[l][i] = 0.0;
+  }
+  std::fill(v_, v_ + v_used_, 0.0);
+}
+
+// One check of the accumulated system instead of one per Jacobian entry.
+// A NaN/Inf anywhere in a Jacobian reaches the diagonal of H or H_ll (sums of squares).
+bool Problem::linear_system_finite() const {
+  if (!H_.m().diagonal().allFinite() || !b_.allFinite()) return false;
+  for (int l = 0; l < num_lm_; ++l)
+    if (!all_finite(Hll_[l], 9) || !all_finite(gl_[l], 3)) return false;
+  return true;
+}
+
+bool Problem::linearize(bool jacobians, double* cost) {
+  if (callback_ != nullptr) callback_->prepare_for_evaluation();
+  double total = 0.0;
+  double r[capacity::kMaxResidualSize];
+  double c = 0.0;
+  if (jacobians) zero_linear_system();
+  for (int q = 0; q < num_free_res_; ++q) {
+    if (!evaluate_residual(residuals_[free_res_[q]], jacobians, r, &c)) return false;
+    total += c;
+    if (jacobians) accumulate_residual(free_res_[q], r);
+  }
+  for (int l = 0; l < num_lm_; ++l) {
+    for (int q = lm_res_begin_[l]; q < lm_res_begin_[l + 1]; ++q) {
+      if (!evaluate_residual(residuals_[lm_res_[q]], jacobians, r, &c)) return false;
+      total += c;
+      if (jacobians) accumulate_residual(lm_res_[q], r);
+    }
+  }
+  for (int p = 0; p < num_priors_; ++p) {
+    if (priors_[p].fixed) continue;
+    if (!linearize_prior(priors_[p], jacobians, &c)) return false;
+    total += c;
+  }
+  *cost = total;
+  if (!std::isfinite(total)) return false;
+  return !jacobians || linear_system_finite();
+}
+
+double Problem::fixed_cost() {
+  if (callback_ != nullptr) callback_->prepare_for_evaluation();
+  double total = 0.0;
+  double r[capacity::kMaxResidualSize];
+  double c = 0.0;
+  for (int k = 0; k < num_residuals_; ++k) {
+    if (!residuals_[k].fixed) continue;
+    if (!evaluate_residual(residuals_[k], false, r, &c)) return std::numeric_limits<double>::quiet_NaN();
+    total += c;
+  }
+  for (int p = 0; p < num_priors_; ++p) {
+    if (!priors_[p].fixed) continue;
+    if (!linearize_prior(priors_[p], false, &c)) return std::numeric_limits<double>::quiet_NaN();
+    total += c;
+  }
+  return total;
+}
+
+SolverStatus Problem::evaluate_cost(double* cost) {
+  const SolverStatus st = prepare();
+  if (st != SolverStatus::kOk) return st;
+  double c = 0.0;
+  if (!linearize(false, &c)) return SolverStatus::kInvalidInput;
+  const double f = fixed_cost();
+  if (!std::isfinite(f)) return SolverStatus::kInvalidInput;
+  *cost = c + f;
+  return SolverStatus::kOk;
+}
+
+}  // namespace ums::solver

@@ -1,0 +1,266 @@
+// Problem::prepare(): the structure every pass reuses until the problem changes (docs/solver.md,
+// "Reduced ordering"): block ordering and offsets, residuals grouped by landmark, the landmark ->
+// reduced-block couplings merged into segments, and the tail envelope of the reduced system.
+#include "solver/problem.hpp"
+
+#include <algorithm>
+
+namespace ums::solver {
+
+SolverStatus Problem::prepare() {
+  if (prepared_) return SolverStatus::kOk;
+  SolverStatus st = order_blocks();
+  if (st != SolverStatus::kOk) return st;
+  group_residuals();
+  st = build_couplings();
+  if (st != SolverStatus::kOk) return st;
+  mark_fixed_priors();
+  build_tail_envelope();
+  resize_workspace();
+  prepared_ = true;
+  return SolverStatus::kOk;
+}
+
+// touched_[block]: the block shares a residual with a variable eliminated block (a landmark).
+void Problem::mark_landmark_coupled() {
+  for (int i = 0; i < num_blocks_; ++i) touched_[i] = false;
+  for (int k = 0; k < num_residuals_; ++k) {
+    const Residual& rb = residuals_[k];
+    bool has_lm = false;
+    for (int j = 0; j < rb.num_blocks; ++j) {
+      const Block& b = blocks_[rb.blocks[j]];
+      has_lm = has_lm || (b.eliminate && !b.constant);
+    }
+    if (!has_lm) continue;
+    for (int j = 0; j < rb.num_blocks; ++j) touched_[rb.blocks[j]] = true;
+  }
+}
+
+// Reduced ordering: blocks seen by landmarks (poses, extrinsics) first, in declaration order,
+// then the others (speed-biases, time offsets). The frames observing one landmark then occupy
+// contiguous rows, so its couplings merge into one or two long segments: the Schur updates and
+// the accumulation touch fewer, denser parts of the reduced matrix. Landmarks get their slots.
+SolverStatus Problem::order_blocks() {
+  n_red_ = 0;
+  num_lm_ = 0;
+  mark_landmark_coupled();
+  for (int pass = 0; pass < 2; ++pass) {
+    if (pass == 1) n_front_ = n_red_;
+    for (int i = 0; i < num_blocks_; ++i) {
+      Block& b = blocks_[i];
+      if (pass == 0) b.index = -1;
+      if (b.constant) continue;
+      if (b.eliminate) {
+        if (pass == 1) continue;
+        if (num_lm_ >= capacity::kMaxEliminatedBlocks) return SolverStatus::kFull;
+        b.index = num_lm_;
+        lm_block_[num_lm_] = static_cast<std::int16_t>(i);
+        lm_dim_[num_lm_] = b.tangent;
+        ++num_lm_;
+      } else if (touched_[i] == (pass == 0)) {
+        if (n_red_ + b.tangent > capacity::kMaxReducedDim) return SolverStatus::kFull;
+        b.index = n_red_;
+        n_red_ += b.tangent;
+      }
+    }
+  }
+  return SolverStatus::kOk;
+}
+
+// A residual's landmark slot, fixed flag, cached block data and fast-path eligibility.
+void Problem::classify_residual(Residual& rb) {
+  rb.landmark = -1;
+  rb.fixed = true;
+  for (int j = 0; j < rb.num_blocks; ++j) {
+    const Block& b = blocks_[rb.blocks[j]];
+    if (b.constant) continue;
+    rb.fixed = false;
+    if (b.eliminate) rb.landmark = static_cast<std::int16_t>(b.index);
+  }
+  // Fast-path eligibility: 2 rows, variable reduced blocks all 6-dof, at most one 1-dof
+  // eliminated block; blocks sorted by reduced row.
+  rb.fast2 = rb.rows == 2;
+  rb.num_sorted = 0;
+  rb.lm_pos = -1;
+  for (int j = 0; j < rb.num_blocks; ++j) {
+    const Block& b = blocks_[rb.blocks[j]];
+    rb.params[j] = b.x;
+    rb.tangent[j] = b.tangent;
+    rb.variable[j] = !b.constant;
+    if (b.constant) continue;
+    if (b.eliminate) {
+      rb.lm_pos = static_cast<std::int8_t>(j);
+      rb.fast2 = rb.fast2 && b.tangent == 1;
+      continue;
+    }
+    rb.fast2 = rb.fast2 && b.tangent == 6;
+    int p = rb.num_sorted++;
+    while (p > 0 && blocks_[rb.blocks[rb.sorted[p - 1]]].index > b.index) {
+      rb.sorted[p] = rb.sorted[p - 1];
+      --p;
+    }
+    rb.sorted[p] = static_cast<std::int8_t>(j);
+  }
+}
+
+// Residuals grouped by landmark (CSR), the rest in a free list.
+void Problem::group_residuals() {
+  for (int l = 0; l <= num_lm_; ++l) lm_res_begin_[l] = 0;
+  num_free_res_ = 0;
+  for (int k = 0; k < num_residuals_; ++k) {
+    Residual& rb = residuals_[k];
+    classify_residual(rb);
+    if (rb.landmark >= 0) {
+      ++lm_res_begin_[rb.landmark + 1];
+    } else if (!rb.fixed) {
+      free_res_[num_free_res_++] = k;
+    }
+  }
+  for (int l = 0; l < num_lm_; ++l) lm_res_begin_[l + 1] += lm_res_begin_[l];
+  int fill[capacity::kMaxEliminatedBlocks];
+  for (int l = 0; l < num_lm_; ++l) fill[l] = lm_res_begin_[l];
+  for (int k = 0; k < num_residuals_; ++k)
+    if (residuals_[k].landmark >= 0) lm_res_[fill[residuals_[k].landmark]++] = k;
+}
+
+// Couplings landmark -> reduced blocks, sorted by row so every Schur block lands in the upper
+// triangle; V storage laid out landmark after landmark.
+SolverStatus Problem::build_couplings() {
+  num_cpl_ = 0;
+  num_seg_ = 0;
+  int v_used = 0;
+  for (int i = 0; i < num_blocks_; ++i) mark_[i] = -1;
+  for (int l = 0; l < num_lm_; ++l) {
+    lm_cpl_begin_[l] = num_cpl_;
+    int ids[capacity::kMaxCouplingsPerLandmark];
+    int n_ids = 0;
+    SolverStatus st = collect_couplings(l, ids, &n_ids);
+    if (st != SolverStatus::kOk) return st;
+    st = add_couplings(l, ids, n_ids, &v_used);
+    if (st != SolverStatus::kOk) return st;
+    merge_segments(l, n_ids);
+    num_cpl_ += n_ids;
+  }
+  lm_cpl_begin_[num_lm_] = num_cpl_;
+  lm_seg_begin_[num_lm_] = num_seg_;
+  v_used_ = v_used;
+  return SolverStatus::kOk;
+}
+
+// The variable reduced blocks sharing a residual with landmark l, sorted by reduced row.
+SolverStatus Problem::collect_couplings(int l, int* ids, int* n_ids) {
+  // mark_[block] == l: already listed for this landmark (no quadratic search).
+  for (int q = lm_res_begin_[l]; q < lm_res_begin_[l + 1]; ++q) {
+    const Residual& rb = residuals_[lm_res_[q]];
+    for (int j = 0; j < rb.num_blocks; ++j) {
+      const int id = rb.blocks[j];
+      const Block& b = blocks_[id];
+      if (b.constant || b.eliminate || mark_[id] == l) continue;
+      if (*n_ids >= capacity::kMaxCouplingsPerLandmark) return SolverStatus::kFull;
+      mark_[id] = l;
+      ids[(*n_ids)++] = id;
+    }
+  }
+  std::sort(ids, ids + *n_ids,
+            [this](int a, int b) { return blocks_[a].index < blocks_[b].index; });
+  return SolverStatus::kOk;
+}
+
+// Coupling records of landmark l (row, size, offset of its V block) and every residual's slots.
+SolverStatus Problem::add_couplings(int l, const int* ids, int n_ids, int* v_used) {
+  if (num_cpl_ + n_ids > capacity::kMaxCouplings) return SolverStatus::kFull;
+  for (int s = 0; s < n_ids; ++s) {
+    const Block& b = blocks_[ids[s]];
+    cpl_row_[num_cpl_ + s] = b.index;
+    cpl_dim_[num_cpl_ + s] = b.tangent;
+    cpl_v_[num_cpl_ + s] = *v_used;
+    *v_used += b.tangent * lm_dim_[l];
+    if (*v_used > capacity::kMaxCouplingEntries) return SolverStatus::kFull;
+  }
+  for (int s = 0; s < n_ids; ++s) slot_of_[ids[s]] = num_cpl_ + s;
+  for (int q = lm_res_begin_[l]; q < lm_res_begin_[l + 1]; ++q) {
+    Residual& rb = residuals_[lm_res_[q]];
+    for (int j = 0; j < rb.num_blocks; ++j) {
+      const int id = rb.blocks[j];
+      rb.slot[j] = mark_[id] == l ? static_cast<std::int16_t>(slot_of_[id]) : -1;
+    }
+  }
+  return SolverStatus::kOk;
+}
+
+// Landmark l's couplings with adjacent rows merged into segments.
+void Problem::merge_segments(int l, int n_ids) {
+  lm_seg_begin_[l] = num_seg_;
+  for (int s = 0; s < n_ids; ++s) {
+    const int c = num_cpl_ + s;
+    if (s > 0 && seg_row_[num_seg_ - 1] + seg_len_[num_seg_ - 1] == cpl_row_[c]) {
+      seg_len_[num_seg_ - 1] += cpl_dim_[c];
+    } else {
+      seg_row_[num_seg_] = cpl_row_[c];
+      seg_len_[num_seg_] = cpl_dim_[c];
+      seg_v_[num_seg_] = cpl_v_[c];
+      ++num_seg_;
+    }
+  }
+}
+
+// A prior over constant blocks only is evaluated once per solve (fixed cost).
+void Problem::mark_fixed_priors() {
+  for (int p = 0; p < num_priors_; ++p) {
+    PriorRef& pr = priors_[p];
+    pr.fixed = true;
+    for (int i = 0; i < pr.prior->num_blocks(); ++i)
+      if (!blocks_[pr.blocks[i]].constant) pr.fixed = false;
+  }
+}
+
+// Widens the tail envelope for a coupling between blocks ia and ic (both variable tail blocks).
+void Problem::couple_tail(int ia, int ic) {
+  const Block& ba = blocks_[ia];
+  const Block& bc = blocks_[ic];
+  if (ba.constant || bc.constant || ba.eliminate || bc.eliminate) return;
+  if (ba.index < n_front_ || bc.index < n_front_) return;
+  const int lo = std::min(ba.index, bc.index);
+  const Block& hi = ba.index < bc.index ? bc : ba;
+  for (int t = 0; t < hi.tangent; ++t)
+    env_first_[hi.index + t] = std::min(env_first_[hi.index + t], lo);
+}
+
+// Envelope of the tail (rows >= n_front_): only free residuals and priors reach tail blocks.
+void Problem::build_tail_envelope() {
+  for (int i = 0; i < num_blocks_; ++i) {
+    const Block& b = blocks_[i];
+    if (b.constant || b.eliminate || b.index < n_front_) continue;
+    for (int t = 0; t < b.tangent; ++t) env_first_[b.index + t] = b.index;
+  }
+  for (int q = 0; q < num_free_res_; ++q) {
+    const Residual& rb = residuals_[free_res_[q]];
+    for (int a = 0; a < rb.num_blocks; ++a)
+      for (int c = a + 1; c < rb.num_blocks; ++c) couple_tail(rb.blocks[a], rb.blocks[c]);
+  }
+  for (int p = 0; p < num_priors_; ++p) {
+    const PriorRef& pr = priors_[p];
+    if (pr.fixed) continue;
+    for (int a = 0; a < pr.prior->num_blocks(); ++a)
+      for (int c = a + 1; c < pr.prior->num_blocks(); ++c) couple_tail(pr.blocks[a], pr.blocks[c]);
+  }
+  const int m = n_red_ - n_front_;
+  long env = 0;
+  for (int j = n_front_; j < n_red_; ++j) env += j - env_first_[j] + 1;
+  // Worth it when the tail's envelope is well below its dense triangle (block-tridiagonal IMU
+  // chain: ~2 blocks per column, 26 % of the triangle for 11 frames, 53 % for 5); a dense tail
+  // (e.g. a prior over every speed-bias) goes through Eigen's blocked LLT as a whole.
+  split_ = n_front_ > 0 && m > 0 && 10 * env <= 3L * m * (m + 1);
+}
+
+void Problem::resize_workspace() {
+  H_.resize(n_red_, n_red_);
+  S_.resize(n_red_, n_red_);
+  b_.resize(n_red_);
+  rhs_.resize(n_red_);
+  dx_.resize(n_red_);
+  scale_red_.resize(n_red_);
+  d_red_.resize(n_red_);
+}
+
+}  // namespace ums::solver

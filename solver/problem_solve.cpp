@@ -1,0 +1,551 @@
+// The Levenberg-Marquardt loop (docs/solver.md, "Step" and "Levenberg-Marquardt"): Ceres 2.1's
+// trust region step for step, the damped Schur-complement step (landmark elimination, the
+// factorization of the reduced system, back-substitution) and the acceptance of candidates.
+#include "solver/problem.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "solver/finite.hpp"
+
+namespace ums::solver {
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+using Small = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 3, 3>;
+using SmallVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 3, 1>;
+
+}  // namespace
+
+// One solve(): the trust region (Ceres' LevenbergMarquardtStrategy and TrustRegionMinimizer
+// state), the costs and the summary being filled.
+struct Problem::LmState {
+  explicit LmState(const SolverOptions& o) : options(o) {}
+  // Ends the solve with its status, termination and reported cost; returns false ("stop").
+  bool end(SolverStatus s, Termination t, double cost) {
+    status = s;
+    summary.termination = t;
+    summary.final_cost = cost;
+    return false;
+  }
+  // An invalid or rejected step: radius /= factor, factor *= 2.
+  void shrink() {
+    radius /= decrease_factor;
+    decrease_factor *= 2.0;
+  }
+
+  const SolverOptions& options;
+  const std::chrono::steady_clock::time_point t0 = std::chrono::steady_clock::now();
+  SolverSummary summary;
+  SolverStatus status = SolverStatus::kOk;
+  bool lm = false;
+  double fixed = 0.0;   // cost of the residuals and priors over constant blocks only
+  double x_cost = 0.0;  // variable cost at the current iterate
+  double grad_norm = 0.0;
+  double radius = 0.0;
+  double decrease_factor = 2.0;
+  double x_norm = -1.0;  // as Ceres: unknown until the first accepted step
+  bool step_successful = true;
+  int invalid_steps = 0;
+  int iteration = 0;
+};
+
+SolverStatus Problem::solve(const SolverOptions& options, SolverSummary* summary) {
+  LmState s(options);
+  bool running = start_solve(s);
+  while (running) running = iterate(s);
+  s.summary.solve_time_s = seconds_since(s.t0);
+  if (summary != nullptr) *summary = s.summary;
+  return s.status;
+}
+
+// Options, structure, finite values, the fixed cost and iteration 0's linearization and scaling.
+bool Problem::start_solve(LmState& s) {
+  const SolverOptions& o = s.options;
+  if (!o.validate()) return s.end(SolverStatus::kInvalidInput, Termination::kFailure, 0.0);
+  const SolverStatus st = prepare();
+  if (st != SolverStatus::kOk) return s.end(st, Termination::kFailure, 0.0);
+  min_diag_ = o.min_lm_diagonal;
+  max_diag_ = o.max_lm_diagonal;
+  s.lm = o.method == Method::kLevenbergMarquardt;
+
+  for (int i = 0; i < num_blocks_; ++i)
+    if (!all_finite(blocks_[i].x, blocks_[i].ambient))
+      return s.end(SolverStatus::kInvalidInput, Termination::kFailure, 0.0);
+  s.fixed = fixed_cost();
+  if (!std::isfinite(s.fixed)) return s.end(SolverStatus::kInvalidInput, Termination::kFailure, 0.0);
+
+  // Iteration 0.
+  if (!linearize(true, &s.x_cost))
+    return s.end(SolverStatus::kInvalidInput, Termination::kFailure, 0.0);
+  ++s.summary.linearizations;
+  s.summary.initial_cost = s.x_cost + s.fixed;
+  set_jacobi_scaling(o.jacobi_scaling);
+  s.grad_norm = gradient_max_norm();
+  s.radius = o.initial_trust_region_radius;
+  return true;
+}
+
+// Ceres' Jacobi scaling s_i = 1 / (1 + sqrt(H_ii)) from the first linearization (or 1).
+void Problem::set_jacobi_scaling(bool jacobi) {
+  for (int i = 0; i < n_red_; ++i)
+    scale_red_[i] = jacobi ? 1.0 / (1.0 + std::sqrt(H_.m()(i, i))) : 1.0;
+  for (int l = 0; l < num_lm_; ++l)
+    for (int p = 0; p < lm_dim_[l]; ++p)
+      scale_l_[l][p] = jacobi ? 1.0 / (1.0 + std::sqrt(Hll_[l][p * lm_dim_[l] + p])) : 1.0;
+}
+
+// One iteration: termination tests, step, candidate cost, tolerances, acceptance. false: ended.
+bool Problem::iterate(LmState& s) {
+  if (!can_continue(s)) return false;
+  ++s.iteration;
+  s.summary.iterations = s.iteration;
+  s.step_successful = false;
+  double mcc = 0.0;
+  const bool valid = compute_step(s.lm ? 1.0 / s.radius : 0.0, &mcc) && (mcc > 0.0 || !s.lm);
+  if (!valid) return reject_invalid_step(s);
+  s.invalid_steps = 0;
+
+  const double step_norm = apply_candidate();
+  double cand_cost = 0.0;
+  if (!linearize(false, &cand_cost)) cand_cost = std::numeric_limits<double>::max();
+  if (candidate_converged(s, step_norm, cand_cost)) return false;
+  const double relative_decrease = (s.x_cost - cand_cost) / mcc;
+  const bool accept = s.lm ? relative_decrease > s.options.min_relative_decrease
+                           : cand_cost < std::numeric_limits<double>::max();
+  if (accept) return accept_step(s, cand_cost, relative_decrease);
+  restore_values();
+  s.shrink();
+  return true;
+}
+
+// Termination tests in Ceres' order (FinalizeIterationAndCheckIfMinimizerCanContinue).
+bool Problem::can_continue(LmState& s) {
+  const SolverOptions& o = s.options;
+  const double cost = s.x_cost + s.fixed;
+  if (seconds_since(s.t0) >= o.max_time_s)
+    return s.end(SolverStatus::kTimeBudget, Termination::kTimeBudget, cost);
+  if (s.iteration >= o.max_iterations)
+    return s.end(SolverStatus::kMaxIterations, Termination::kMaxIterations, cost);
+  if (s.step_successful && s.grad_norm <= o.gradient_tolerance)
+    return s.end(SolverStatus::kConverged, Termination::kGradientTolerance, cost);
+  if (s.lm && s.radius <= o.min_trust_region_radius)
+    return s.end(SolverStatus::kConverged, Termination::kMinTrustRegionRadius, cost);
+  return true;
+}
+
+// Failed factorization, non-finite step or no model decrease. false: ended.
+bool Problem::reject_invalid_step(LmState& s) {
+  if (++s.invalid_steps >= s.options.max_consecutive_invalid_steps || !s.lm)
+    return s.end(SolverStatus::kNumericalFailure, Termination::kFailure, s.x_cost + s.fixed);
+  s.shrink();
+  return true;
+}
+
+// Candidate x [+] dx written in place (old values backed up); returns |x_new - x| (ambient).
+double Problem::apply_candidate() {
+  double ambient_tmp[capacity::kMaxBlockAmbientSize];
+  double delta_tmp[capacity::kMaxBlockTangentSize];
+  double step_sq = 0.0;
+  for (int i = 0; i < num_blocks_; ++i) {
+    const Block& b = blocks_[i];
+    if (b.constant) continue;
+    const double* d = b.eliminate ? dl_[b.index] : nullptr;
+    if (!b.eliminate) {
+      for (int j = 0; j < b.tangent; ++j) delta_tmp[j] = dx_[b.index + j];
+      d = delta_tmp;
+    }
+    manifold_plus(b.manifold, b.ambient, b.x, d, ambient_tmp);
+    for (int j = 0; j < b.ambient; ++j) {
+      backup_[i][j] = b.x[j];
+      const double dj = ambient_tmp[j] - b.x[j];
+      step_sq += dj * dj;
+      b.x[j] = ambient_tmp[j];
+    }
+  }
+  return std::sqrt(step_sq);
+}
+
+void Problem::restore_values() {
+  for (int i = 0; i < num_blocks_; ++i) {
+    const Block& b = blocks_[i];
+    if (b.constant) continue;
+    for (int j = 0; j < b.ambient; ++j) b.x[j] = backup_[i][j];
+  }
+}
+
+// Parameter tolerance |x_new - x| <= tol (|x| + tol), then function tolerance |cost change| <=
+// tol * cost: either discards the candidate and ends the solve (true).
+bool Problem::candidate_converged(LmState& s, double step_norm, double cand_cost) {
+  const SolverOptions& o = s.options;
+  Termination t;
+  if (step_norm <= o.parameter_tolerance * (s.x_norm + o.parameter_tolerance))
+    t = Termination::kParameterTolerance;
+  else if (std::abs(s.x_cost - cand_cost) <= o.function_tolerance * s.x_cost)
+    t = Termination::kFunctionTolerance;
+  else
+    return false;
+  restore_values();
+  s.summary.iterations = s.iteration - 1;  // as Ceres: the attempt that ends the solve is not listed
+  s.end(SolverStatus::kConverged, t, s.x_cost + s.fixed);
+  return true;
+}
+
+// The candidate becomes the iterate: linearized there (unless it is the last permitted step),
+// radius /= max(1/3, 1 - (2 rho - 1)^3). false: ended.
+bool Problem::accept_step(LmState& s, double cand_cost, double relative_decrease) {
+  const SolverOptions& o = s.options;
+  s.x_cost = cand_cost;
+  // The last permitted step: the loop's next tests end the solve before any of them reads
+  // the Jacobians, so linearizing here would only be thrown away (the time test still comes
+  // first, as in the loop). A window solve capped at 3 iterations saves 1 of its 7 passes.
+  if (s.iteration >= o.max_iterations) {
+    ++s.summary.successful_steps;
+    if (seconds_since(s.t0) >= o.max_time_s)
+      return s.end(SolverStatus::kTimeBudget, Termination::kTimeBudget, s.x_cost + s.fixed);
+    return s.end(SolverStatus::kMaxIterations, Termination::kMaxIterations, s.x_cost + s.fixed);
+  }
+  s.x_norm = variable_x_norm();
+  if (!linearize(true, &s.x_cost)) {
+    restore_values();
+    return s.end(SolverStatus::kNumericalFailure, Termination::kFailure, s.x_cost + s.fixed);
+  }
+  ++s.summary.linearizations;
+  s.grad_norm = gradient_max_norm();
+  s.step_successful = true;
+  ++s.summary.successful_steps;
+  const double q = 2.0 * relative_decrease - 1.0;
+  s.radius = std::min(o.max_trust_region_radius,
+                      s.radius / std::max(1.0 / 3.0, 1.0 - q * q * q));
+  s.decrease_factor = 2.0;
+  return true;
+}
+
+bool Problem::compute_step(double lm_scale, double* model_cost_change) {
+  const bool damp = lm_scale > 0.0;
+  form_reduced_system(lm_scale, damp);
+  for (int l = 0; l < num_lm_; ++l) eliminate_landmark(l, lm_scale, S_.m(), rhs_, damp);
+
+  if (n_red_ > 0 && !factor_and_solve()) return false;
+
+  // Back-substitution and the model decrease -(g^T dx + 0.5 dx^T H dx), computed from the damped
+  // normal equations (H + D) dx = -g as -0.5 g^T dx + 0.5 dx^T D dx.
+  double gdx = b_.dot(dx_);
+  double dDd = 0.0;
+  if (damp)
+    for (int i = 0; i < n_red_; ++i) dDd += dx_[i] * dx_[i] * d_red_[i];
+  for (int l = 0; l < num_lm_; ++l) {
+    if (std::isinf(dl_[l][0])) {  // skipped by eliminate_landmark: no step
+      for (int p = 0; p < lm_dim_[l]; ++p) dl_[l][p] = 0.0;
+      continue;
+    }
+    back_substitute(l);
+    add_landmark_model_terms(l, lm_scale, damp, &gdx, &dDd);
+    if (!std::isfinite(dl_[l][0])) return false;
+  }
+  *model_cost_change = -0.5 * gdx + 0.5 * dDd;
+  return std::isfinite(*model_cost_change);
+}
+
+// S = H + D (upper triangle; D the LM diagonal of the reduced blocks, kept in d_red_), rhs = b.
+void Problem::form_reduced_system(double lm_scale, bool damp) {
+  // Only the upper triangle is ever read (Schur updates and the Upper LLT).
+  S_.m().triangularView<Eigen::Upper>() = H_.m();
+  rhs_ = b_;
+  if (!damp) return;
+  MatrixMap S = S_.m();
+  const ConstMatrixMap H = static_cast<const DenseMatrix&>(H_).m();
+  for (int i = 0; i < n_red_; ++i) {
+    const double s2 = scale_red_[i] * scale_red_[i];
+    d_red_[i] = lm_scale * std::clamp(H(i, i) * s2, min_diag_, max_diag_) / s2;
+    S(i, i) += d_red_[i];
+  }
+}
+
+// Schur complement of landmark l into S, rhs (rhs = reduced gradient). damp: add its LM diagonal.
+void Problem::eliminate_landmark(int l, double lm_scale, MatrixMap S, DenseVector& rhs,
+                                 bool damp) {
+  if (lm_dim_[l] == 1)
+    eliminate_landmark1(l, lm_scale, S, rhs, damp);
+  else
+    eliminate_landmark_block(l, lm_scale, S, rhs, damp);
+}
+
+// 1-dof landmark: a scalar division and a rank-1 update; dl_[l][0] keeps 1/h (inf: skipped).
+void Problem::eliminate_landmark1(int l, double lm_scale, MatrixMap S, DenseVector& rhs,
+                                  bool damp) {
+  double h = Hll_[l][0];
+  if (damp) h += lm_scale * std::clamp(h * scale_l_[l][0] * scale_l_[l][0], min_diag_, max_diag_) /
+                 (scale_l_[l][0] * scale_l_[l][0]);
+  if (!(h > 0.0)) {
+    dl_[l][0] = std::numeric_limits<double>::infinity();  // marks "skipped" for back-substitution
+    return;
+  }
+  const double w = 1.0 / h;
+  dl_[l][0] = w;  // keep 1/h for back-substitution
+  schur_update1(l, w, w * gl_[l][0], S, rhs);
+}
+
+// S -= w v v^T, rhs -= wg v over landmark l's segments' upper triangle, column by column: plain
+// axpy loops on contiguous rows (short, variable lengths: cheaper than Eigen segment expressions).
+void Problem::schur_update1(int l, double w, double wg, MatrixMap S, DenseVector& rhs) const {
+  const int s0 = lm_seg_begin_[l];
+  const int s1 = lm_seg_begin_[l + 1];
+  const Eigen::Index ld = S.outerStride();
+  for (int a = s0; a < s1; ++a) {
+    const int oa = seg_row_[a];
+    const int la = seg_len_[a];
+    const double* va = v_ + seg_v_[a];
+    double* rhs_a = rhs.data() + oa;
+    for (int i = 0; i < la; ++i) rhs_a[i] -= wg * va[i];
+    for (int j = 0; j < la; ++j) {
+      double* col = S.data() + (oa + j) * ld + oa;
+      const double cj = w * va[j];
+      for (int i = 0; i <= j; ++i) col[i] -= cj * va[i];
+    }
+    for (int b = a + 1; b < s1; ++b) {
+      const int ob = seg_row_[b];
+      const int lb = seg_len_[b];
+      const double* vb = v_ + seg_v_[b];
+      for (int j = 0; j < lb; ++j) {
+        double* col = S.data() + (ob + j) * ld + oa;
+        const double cj = w * vb[j];
+        for (int i = 0; i < la; ++i) col[i] -= cj * va[i];
+      }
+    }
+  }
+}
+
+// 2- or 3-dof landmark: W = (H_ll + D)^-1 by a small LLT (kept in winv_; dl_[l][0] = inf when
+// not positive definite), S -= V W V^T, rhs -= V W g over its couplings.
+void Problem::eliminate_landmark_block(int l, double lm_scale, MatrixMap S, DenseVector& rhs,
+                                       bool damp) {
+  const int e = lm_dim_[l];
+  const int c0 = lm_cpl_begin_[l];
+  const int c1 = lm_cpl_begin_[l + 1];
+  Small Hd(e, e);
+  for (int p = 0; p < e; ++p)
+    for (int q = 0; q < e; ++q) Hd(p, q) = Hll_[l][p * e + q];
+  if (damp)
+    for (int p = 0; p < e; ++p) {
+      const double s2 = scale_l_[l][p] * scale_l_[l][p];
+      Hd(p, p) += lm_scale * std::clamp(Hd(p, p) * s2, min_diag_, max_diag_) / s2;
+    }
+  Eigen::LLT<Small> llt(Hd);
+  if (llt.info() != Eigen::Success) {
+    dl_[l][0] = std::numeric_limits<double>::infinity();
+    return;
+  }
+  Small W = Small::Identity(e, e);
+  llt.solveInPlace(W);
+  // Keep W for back-substitution (dl_ holds a flag only).
+  for (int p = 0; p < e; ++p)
+    for (int q = 0; q < e; ++q) winv_[l][p * e + q] = W(p, q);
+  dl_[l][0] = 0.0;
+  SmallVector g(e);
+  for (int p = 0; p < e; ++p) g[p] = gl_[l][p];
+  const SmallVector wg = W * g;
+  using VMap = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic,
+                                              Eigen::RowMajor, capacity::kMaxBlockTangentSize, 3>>;
+  for (int a = c0; a < c1; ++a) {
+    const int oa = cpl_row_[a];
+    const int da = cpl_dim_[a];
+    const VMap Va(v_ + cpl_v_[a], da, e);
+    rhs.segment(oa, da) -= Va.lazyProduct(wg);
+    const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, capacity::kMaxBlockTangentSize, 3>
+        VW = Va.lazyProduct(W);
+    for (int b = a; b < c1; ++b) {
+      const VMap Vb(v_ + cpl_v_[b], cpl_dim_[b], e);
+      S.block(oa, cpl_row_[b], da, cpl_dim_[b]) -= VW.lazyProduct(Vb.transpose());
+    }
+  }
+}
+
+// dl = -(H_ll + D_l)^-1 (g_l + V^T dx) for landmark l (not skipped by the elimination).
+void Problem::back_substitute(int l) {
+  const int e = lm_dim_[l];
+  double t[3];
+  for (int p = 0; p < e; ++p) t[p] = gl_[l][p];
+  if (e == 1) {
+    // 1-dof landmark: dot products over its merged contiguous segments.
+    for (int a = lm_seg_begin_[l]; a < lm_seg_begin_[l + 1]; ++a)
+      t[0] += Eigen::Map<const Eigen::VectorXd>(v_ + seg_v_[a], seg_len_[a])
+                  .dot(dx_.segment(seg_row_[a], seg_len_[a]));
+    dl_[l][0] = -dl_[l][0] * t[0];
+    return;
+  }
+  for (int a = lm_cpl_begin_[l]; a < lm_cpl_begin_[l + 1]; ++a) {
+    const int oa = cpl_row_[a];
+    const int da = cpl_dim_[a];
+    const double* va = v_ + cpl_v_[a];
+    for (int i = 0; i < da; ++i)
+      for (int p = 0; p < e; ++p) t[p] += va[i * e + p] * dx_[oa + i];
+  }
+  for (int p = 0; p < e; ++p) {
+    double s = 0.0;
+    for (int q = 0; q < e; ++q) s += winv_[l][p * e + q] * t[q];
+    dl_[l][p] = -s;
+  }
+}
+
+// Landmark l's terms of g^T dx and dx^T D dx.
+void Problem::add_landmark_model_terms(int l, double lm_scale, bool damp, double* gdx,
+                                       double* dDd) const {
+  const int e = lm_dim_[l];
+  for (int p = 0; p < e; ++p) {
+    *gdx += gl_[l][p] * dl_[l][p];
+    if (damp) {
+      const double s2 = scale_l_[l][p] * scale_l_[l][p];
+      *dDd += dl_[l][p] * dl_[l][p] * lm_scale *
+              std::clamp(Hll_[l][p * e + p] * s2, min_diag_, max_diag_) / s2;
+    }
+  }
+}
+
+// S = [A B; B^T C] with A the landmark-coupled front rows and C the tail. When C is sparse (the
+// IMU chain makes it block-tridiagonal) it is eliminated first: C = U^T U by an envelope Cholesky,
+// X = U^-T B^T, A' = A - X^T X (dense rank update), A' factored by Eigen's LLT. The dense
+// factorization then runs on the front rows only (72 instead of 171 in the VIO window). Everything
+// is in place in S's upper triangle: U over C, X^T over B.
+bool Problem::factor_and_solve() {
+  if (!split_) return factor_and_solve_dense();
+  if (!factor_tail()) return false;
+  MatrixMap S = S_.m();
+  const int nf = n_front_;
+  // A' = A - X^T X, then the dense LLT of the front rows.
+  S.topLeftCorner(nf, nf).selfadjointView<Eigen::Upper>().rankUpdate(
+      S.block(0, nf, nf, n_red_ - nf), -1.0);
+  Eigen::Ref<Eigen::MatrixXd> A_ref(S.topLeftCorner(nf, nf));
+  Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>, Eigen::Upper> llt(A_ref);
+  if (llt.info() != Eigen::Success) return false;
+  solve_tail_forward();
+  auto xa = dx_.head(nf);
+  llt.solveInPlace(xa);
+  solve_tail_backward();
+  return dx_.allFinite();
+}
+
+// One LLT of the whole reduced system.
+bool Problem::factor_and_solve_dense() {
+  MatrixMap S = S_.m();
+  Eigen::Ref<Eigen::MatrixXd> S_ref(S);
+  Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>, Eigen::Upper> llt(S_ref);
+  if (llt.info() != Eigen::Success) return false;
+  dx_ = -rhs_;
+  llt.solveInPlace(dx_);
+  return dx_.allFinite();
+}
+
+// Envelope Cholesky of C (up-looking, column by column): U(i,j) for env_first_[j] <= i <= j, and
+// X^T over B. false: C is not positive definite.
+bool Problem::factor_tail() {
+  MatrixMap S = S_.m();
+  const int nf = n_front_;
+  const int n = n_red_;
+  const Eigen::Index ld = S.outerStride();
+  double* s = S.data();
+  auto col = [s, ld](int j) { return s + j * ld; };
+  for (int j = nf; j < n; ++j) {
+    double* cj = col(j);
+    const int fj = env_first_[j];
+    for (int i = fj; i < j; ++i) {
+      const double* ci = col(i);
+      const int k0 = std::max(fj, env_first_[i]);
+      double d = cj[i];
+      for (int k = k0; k < i; ++k) d -= ci[k] * cj[k];
+      cj[i] = d / ci[i];
+    }
+    double d = cj[j];
+    for (int k = fj; k < j; ++k) d -= cj[k] * cj[k];
+    if (!(d > 0.0)) return false;
+    cj[j] = std::sqrt(d);
+    // X^T column j (rows 0..nf): (B^T(j,:) - sum_k U(k,j) X(k,:)) / U(j,j).
+    for (int k = fj; k < j; ++k) {
+      const double u = cj[k];
+      const double* xk = col(k);
+      for (int r = 0; r < nf; ++r) cj[r] -= u * xk[r];
+    }
+    const double inv = 1.0 / cj[j];
+    for (int r = 0; r < nf; ++r) cj[r] *= inv;
+  }
+  return true;
+}
+
+// y = U^-T rc (kept in dx_'s tail), then dx_'s front = -(ra - X^T y), the right-hand side of A'.
+void Problem::solve_tail_forward() {
+  const MatrixMap S = S_.m();
+  const int nf = n_front_;
+  const int n = n_red_;
+  const Eigen::Index ld = S.outerStride();
+  const double* s = S.data();
+  auto col = [s, ld](int j) { return s + j * ld; };
+  double* x = dx_.data();
+  for (int j = nf; j < n; ++j) {
+    const double* cj = col(j);
+    double d = rhs_[j];
+    for (int k = env_first_[j]; k < j; ++k) d -= cj[k] * x[k];
+    x[j] = d / cj[j];
+  }
+  for (int r = 0; r < nf; ++r) x[r] = -rhs_[r];
+  for (int j = nf; j < n; ++j) {
+    const double* cj = col(j);
+    const double y = x[j];
+    for (int r = 0; r < nf; ++r) x[r] += cj[r] * y;
+  }
+}
+
+// xc = -U^-1 (y + X xa), given xa in dx_'s front and y in its tail.
+void Problem::solve_tail_backward() {
+  const MatrixMap S = S_.m();
+  const int nf = n_front_;
+  const int n = n_red_;
+  const Eigen::Index ld = S.outerStride();
+  const double* s = S.data();
+  auto col = [s, ld](int j) { return s + j * ld; };
+  double* x = dx_.data();
+  for (int j = nf; j < n; ++j) {
+    const double* cj = col(j);
+    double d = x[j];
+    for (int r = 0; r < nf; ++r) d += cj[r] * x[r];
+    x[j] = -d;
+  }
+  for (int j = n - 1; j >= nf; --j) {
+    const double* cj = col(j);
+    x[j] /= cj[j];
+    const double xj = x[j];
+    for (int k = env_first_[j]; k < j; ++k) x[k] -= cj[k] * xj;
+  }
+}
+
+double Problem::gradient_max_norm() const {
+  // Ceres' measure: |x - Plus(x, -g)|_inf in ambient coordinates.
+  double m = 0.0;
+  double xp[capacity::kMaxBlockAmbientSize];
+  double ng[capacity::kMaxBlockTangentSize];
+  for (int i = 0; i < num_blocks_; ++i) {
+    const Block& b = blocks_[i];
+    if (b.constant) continue;
+    for (int j = 0; j < b.tangent; ++j)
+      ng[j] = b.eliminate ? -gl_[b.index][j] : -b_[b.index + j];
+    manifold_plus(b.manifold, b.ambient, b.x, ng, xp);
+    for (int j = 0; j < b.ambient; ++j) m = std::max(m, std::abs(b.x[j] - xp[j]));
+  }
+  return m;
+}
+
+double Problem::variable_x_norm() const {
+  double s = 0.0;
+  for (int i = 0; i < num_blocks_; ++i) {
+    const Block& b = blocks_[i];
+    if (b.constant) continue;
+    for (int j = 0; j < b.ambient; ++j) s += b.x[j] * b.x[j];
+  }
+  return std::sqrt(s);
+}
+
+}  // namespace ums::solver
