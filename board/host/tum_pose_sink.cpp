@@ -1,5 +1,11 @@
 #include "board/host/tum_pose_sink.hpp"
 
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "core/estimator/estimator.hpp"
+#include "core/imu/propagation.hpp"
+
 namespace ums::cli {
 
 namespace {

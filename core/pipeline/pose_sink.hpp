@@ -4,10 +4,10 @@
 
 #include <cstdint>
 
-#include "core/estimator/estimator.hpp"
-#include "core/imu/propagation.hpp"
-
 namespace ums {
+
+struct EstimatorOutput;  // core/estimator/estimator.hpp
+struct NavState;         // core/imu/propagation.hpp
 
 class PoseSink {
  public:
