@@ -5,7 +5,6 @@
 #include <cmath>
 #include <limits>
 
-#include "core/math/so3.hpp"
 #include "profiling/alloc_counter.hpp"
 
 namespace ums::cli {
@@ -41,22 +40,20 @@ double thread_cpu_s() {
   return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
 }
 
-// One TUM line (t_s x y z qx qy qz qw); stdio into a buffered FILE allocates nothing per line.
-void write_pose(std::FILE* f, std::int64_t t_ns, const Eigen::Vector3d& p, const Eigen::Quaterniond& q) {
-  std::fprintf(f, "%lld.%09lld %.7f %.7f %.7f %.9f %.9f %.9f %.9f\n", static_cast<long long>(t_ns / 1000000000),
-               static_cast<long long>(t_ns % 1000000000), p.x(), p.y(), p.z(), q.x(), q.y(), q.z(), q.w());
+VioPipelineOptions vio_options_from(const ReplayPipelineOptions& pipeline) {
+  VioPipelineOptions o;
+  o.frontend_only = pipeline.frontend_only;
+  return o;
 }
 
 }  // namespace
 
 ReplayPipeline::ReplayPipeline(const AppConfig& config, const ReplayPipelineOptions& options)
-    : config_(config),
-      options_(options),
+    : options_(options),
       times_(new StageTimes()),
-      frontend_(frontend_options_from(config), config.rig),
-      estimator_(options.frontend_only ? nullptr : new Estimator(estimator_options_from(config, options), config.rig)),
-      features_(new FrameFeatures()),
-      q_b_c0_(config.rig.cam[0].T_b_c.rotation()) {
+      vio_(vio_options_from(options), frontend_options_from(config), estimator_options_from(config, options),
+           config.rig) {
+  vio_.set_pose_sink(&poses_);
   // Reserved here so that recording a frame never allocates; beyond it frames are counted only.
   for (auto* v : {&series_.t_s, &series_.frontend_ms, &series_.total_ms, &series_.backend_ms, &series_.est_t_s})
     v->reserve(options.report_frames);
@@ -64,10 +61,7 @@ ReplayPipeline::ReplayPipeline(const AppConfig& config, const ReplayPipelineOpti
   for (auto* v : {&series_.n_3d, &series_.n_2d_left, &series_.n_2d_right}) v->reserve(options.report_frames);
 }
 
-ReplayPipeline::~ReplayPipeline() {
-  delete features_;
-  delete times_;
-}
+ReplayPipeline::~ReplayPipeline() { delete times_; }
 
 void ReplayPipeline::note_time(std::int64_t t_ns) {
   if (first_t_ns_ < 0) first_t_ns_ = t_ns;
@@ -75,33 +69,11 @@ void ReplayPipeline::note_time(std::int64_t t_ns) {
 }
 
 void ReplayPipeline::on_imu(const ImuSample& sample) {
-  const bool steady = summary_.frames >= options_.steady_state_from_frame;
+  const bool steady = vio_.counters().frames >= options_.steady_state_from_frame;
   AllocScope allocs;
   const auto start = std::chrono::steady_clock::now();
   const double cpu_start_s = thread_cpu_s();
-
-  if (sample.t_ns <= last_imu_t_ns_) {
-    ++out_of_order_imu_;  // a source bug: count, never pass on
-  } else {
-    ImuSample clipped;
-    const bool saturated = saturation_.apply(sample, &clipped);
-    if (saturated) ++summary_.saturated_samples;
-    if (last_imu_t_ns_ >= 0 && summary_.frames > 0) {
-      // Rotation hint only: raw gyro (bias of a few mrad/s moves KLT starts by < 0.1 px at 20 Hz).
-      const double dt_s = static_cast<double>(sample.t_ns - last_imu_t_ns_) * 1e-9;
-      q_bprev_bcurr_ = (q_bprev_bcurr_ * so3::exp_quat(clipped.gyro_rad_s * dt_s)).normalized();
-      have_imu_since_frame_ = true;
-    }
-    last_imu_t_ns_ = sample.t_ns;
-    ++summary_.imu_samples;
-    if (estimator_ != nullptr) {
-      estimator_->add_imu(clipped, saturated);
-      NavState nav;
-      if (imu_poses_ != nullptr && summary_.frames > 0 && estimator_->imu_rate_state(&nav)) {
-        write_pose(imu_poses_, sample.t_ns, nav.p_w_b, nav.q_w_b);
-      }
-    }
-  }
+  vio_.on_imu(sample);
   summary_.processing_s +=
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   summary_.processing_cpu_s += thread_cpu_s() - cpu_start_s;
@@ -109,81 +81,67 @@ void ReplayPipeline::on_imu(const ImuSample& sample) {
 }
 
 void ReplayPipeline::on_stereo(const StereoFrame& frame) {
-  const bool steady = summary_.frames >= options_.steady_state_from_frame;
+  const bool steady = vio_.counters().frames >= options_.steady_state_from_frame;
   AllocScope allocs;
   const auto frame_start = std::chrono::steady_clock::now();
-  double frontend_ms = 0.0;
-  double backend_ms = 0.0;
   {
     ScopedStageTimer total(times_, Stage::kTotal);
     const auto start = std::chrono::steady_clock::now();
     const double cpu_start_s = thread_cpu_s();
     note_time(frame.t_ns);
-    ++summary_.frames;
-    bool frontend_ok = false;
-    {
-      ScopedStageTimer t(times_, Stage::kFrontend);
-      // cam0 rotation between frames from the body rotation: R_c0prev_c0curr = R_c0_b R R_b_c0.
-      const Eigen::Quaterniond q_c0prev_c0curr = q_b_c0_.conjugate() * q_bprev_bcurr_ * q_b_c0_;
-      const Status st = frontend_.process(frame, have_imu_since_frame_ ? &q_c0prev_c0curr : nullptr,
-                                          features_);
-      frontend_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-      q_bprev_bcurr_.setIdentity();
-      have_imu_since_frame_ = false;
-      frontend_ok = st == Status::kOk;
-      if (st == Status::kOk) {
-        accumulate_features(*features_);
-        const FrontendFrameStats& fs = features_->stats;
-        times_->record(Stage::kPyramid, fs.pyramid_ms);
-        times_->record(Stage::kDetect, fs.detect_ms);
-        times_->record(Stage::kTrack, fs.track_ms);
-        times_->record(Stage::kStereo, fs.stereo_ms);
-        times_->record(Stage::kRansac, fs.ransac_ms);
-      } else {
-        ++summary_.frontend_rejected_frames;
-      }
-    }
-    if (frontend_ok && estimator_ != nullptr) {
-      EstimatorOutput est;
-      EstimatorTiming timing;
-      estimator_->add_frame(*features_, &est, &timing);
-      times_->record(Stage::kPreintegrate, timing.preintegrate_ms);
-      if (est.mode != EstimatorMode::kImuOnly) {
-        times_->record(Stage::kSolveRound1, timing.solve_round1_ms);
-        times_->record(Stage::kSolveRound2, timing.solve_round2_ms);
-      }
-      if (est.keyframe) ++summary_.keyframes;
-      if (timing.marginalize_ms > 0.0f) times_->record(Stage::kMarginalize, timing.marginalize_ms);
-      times_->record(Stage::kBackend, timing.backend_ms);
-      backend_ms = timing.backend_ms;
-      if (est.valid) {
-        if (trajectory_ != nullptr) write_pose(trajectory_, est.t_ns, est.p_w_b, est.q_w_b);
-        ++poses_written_;
-        if (series_.est_t_s.size() < series_.est_t_s.capacity()) {
-          series_.est_t_s.push_back(static_cast<double>(frame.t_ns - first_t_ns_) * 1e-9);
-          series_.est_p_w_m.push_back(est.p_w_b);
-        }
-      }
-    }
+    vio_.on_stereo(frame);
+    record_stage_times(vio_.last_frame());
     summary_.processing_s +=
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     summary_.processing_cpu_s += thread_cpu_s() - cpu_start_s;
   }
-  if (series_.t_s.size() < series_.t_s.capacity()) {
-    const bool ok = frontend_rejected_before_ == summary_.frontend_rejected_frames;
-    series_.t_s.push_back(static_cast<double>(frame.t_ns - first_t_ns_) * 1e-9);
-    series_.frontend_ms.push_back(frontend_ms);
-    series_.backend_ms.push_back(backend_ms);
-    series_.total_ms.push_back(
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - frame_start).count());
-    series_.n_3d.push_back(ok ? features_->n_3d : 0);
-    series_.n_2d_left.push_back(ok ? features_->n_2d_left : 0);
-    series_.n_2d_right.push_back(ok ? features_->n_2d_right : 0);
-  } else {
-    ++series_dropped_;
-  }
-  frontend_rejected_before_ = summary_.frontend_rejected_frames;
+  record_series(frame,
+                std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - frame_start).count());
   if (steady) summary_.heap_allocs_steady_state += allocs.allocations();
+}
+
+void ReplayPipeline::record_stage_times(const VioFrameRecord& frame) {
+  times_->record(Stage::kFrontend, frame.frontend_ms);
+  if (frame.frontend_status == Status::kOk) {
+    accumulate_features(vio_.features());
+    const FrontendFrameStats& fs = vio_.features().stats;
+    times_->record(Stage::kPyramid, fs.pyramid_ms);
+    times_->record(Stage::kDetect, fs.detect_ms);
+    times_->record(Stage::kTrack, fs.track_ms);
+    times_->record(Stage::kStereo, fs.stereo_ms);
+    times_->record(Stage::kRansac, fs.ransac_ms);
+  }
+  if (!frame.estimated) return;
+  const EstimatorTiming& timing = frame.timing;
+  times_->record(Stage::kPreintegrate, timing.preintegrate_ms);
+  if (frame.estimate.mode != EstimatorMode::kImuOnly) {
+    times_->record(Stage::kSolveRound1, timing.solve_round1_ms);
+    times_->record(Stage::kSolveRound2, timing.solve_round2_ms);
+  }
+  if (timing.marginalize_ms > 0.0f) times_->record(Stage::kMarginalize, timing.marginalize_ms);
+  times_->record(Stage::kBackend, timing.backend_ms);
+}
+
+void ReplayPipeline::record_series(const StereoFrame& frame, double total_ms) {
+  const VioFrameRecord& rec = vio_.last_frame();
+  const double t_s = static_cast<double>(frame.t_ns - first_t_ns_) * 1e-9;
+  if (rec.estimated && rec.estimate.valid && series_.est_t_s.size() < series_.est_t_s.capacity()) {
+    series_.est_t_s.push_back(t_s);
+    series_.est_p_w_m.push_back(rec.estimate.p_w_b);
+  }
+  if (series_.t_s.size() >= series_.t_s.capacity()) {
+    ++series_dropped_;
+    return;
+  }
+  const bool ok = rec.frontend_status == Status::kOk;
+  const FrameFeatures& f = vio_.features();
+  series_.t_s.push_back(t_s);
+  series_.frontend_ms.push_back(rec.frontend_ms);
+  series_.backend_ms.push_back(rec.estimated ? static_cast<double>(rec.timing.backend_ms) : 0.0);
+  series_.total_ms.push_back(total_ms);
+  series_.n_3d.push_back(ok ? f.n_3d : 0);
+  series_.n_2d_left.push_back(ok ? f.n_2d_left : 0);
+  series_.n_2d_right.push_back(ok ? f.n_2d_right : 0);
 }
 
 void ReplayPipeline::accumulate_features(const FrameFeatures& f) {
@@ -201,6 +159,12 @@ void ReplayPipeline::accumulate_features(const FrameFeatures& f) {
 
 ReplaySummary ReplayPipeline::summary() const {
   ReplaySummary s = summary_;
+  const VioPipelineCounters& c = vio_.counters();
+  s.frames = c.frames;
+  s.imu_samples = c.imu_samples;
+  s.keyframes = c.keyframes;
+  s.frontend_rejected_frames = c.frontend_rejected_frames;
+  s.saturated_samples = c.saturated_samples;
   s.duration_s = first_t_ns_ < 0 ? 0.0 : static_cast<double>(last_t_ns_ - first_t_ns_) * 1e-9;
   if (frontend_frames_ > 0) {
     const double n = static_cast<double>(frontend_frames_);
@@ -220,6 +184,22 @@ void ReplayPipeline::write_stats(JsonWriter& w) const {
   w.value("duration_s", s.duration_s);
   w.value("processing_s", s.processing_s, 4);
   w.value("processing_cpu_s", s.processing_cpu_s, 4);
+  write_timing_stats(w);
+  w.begin_object("features")
+      .value("mean_3d", s.mean_3d, 5)
+      .value("mean_2d_left", s.mean_2d_left, 5)
+      .value("mean_2d_right", s.mean_2d_right, 5)
+      .value("mean_track_length", s.mean_track_length, 5)
+      .value("stereo_epipolar_rms_px", s.stereo_epipolar_rms_px, 4)
+      .value("keyframes", s.keyframes)
+      .end_object();
+  w.begin_object("imu").value("saturated_samples", s.saturated_samples).end_object();
+  if (has_estimator()) write_estimator_stats(w);
+  write_memory_stats(w);
+  write_drops(w, s);
+}
+
+void ReplayPipeline::write_timing_stats(JsonWriter& w) const {
   w.begin_object("timing_ms");
   for (std::size_t i = 0; i < static_cast<std::size_t>(Stage::kCount); ++i) {
     const Stage stage = static_cast<Stage>(i);
@@ -234,16 +214,9 @@ void ReplayPipeline::write_stats(JsonWriter& w) const {
         .end_object();
   }
   w.end_object();
-  w.begin_object("features")
-      .value("mean_3d", s.mean_3d, 5)
-      .value("mean_2d_left", s.mean_2d_left, 5)
-      .value("mean_2d_right", s.mean_2d_right, 5)
-      .value("mean_track_length", s.mean_track_length, 5)
-      .value("stereo_epipolar_rms_px", s.stereo_epipolar_rms_px, 4)
-      .value("keyframes", s.keyframes)
-      .end_object();
-  w.begin_object("imu").value("saturated_samples", s.saturated_samples).end_object();
-  if (estimator_ != nullptr) write_estimator_stats(w);
+}
+
+void ReplayPipeline::write_memory_stats(JsonWriter& w) const {
   w.begin_object("memory")
       .value("heap_allocs_steady_state", summary_.heap_allocs_steady_state)
       .value("static_bytes", static_cast<std::uint64_t>(static_bytes_))
@@ -253,8 +226,8 @@ void ReplayPipeline::write_stats(JsonWriter& w) const {
       .value("capacity", static_cast<std::uint64_t>(decltype(FrameFeatures::features)::capacity()))
       .value("peak", static_cast<std::uint64_t>(peak_features_))
       .end_object();
-  if (estimator_ != nullptr) {
-    const EstimatorStats& e = estimator_->stats();
+  if (const Estimator* est = vio_.estimator()) {
+    const EstimatorStats& e = est->stats();
     w.begin_object("landmarks")
         .value("capacity", static_cast<std::uint64_t>(capacity::kMaxLandmarks))
         .value("peak", static_cast<std::uint64_t>(e.peak_landmarks))
@@ -265,12 +238,15 @@ void ReplayPipeline::write_stats(JsonWriter& w) const {
         .end_object();
   }
   w.end_object().end_object();
+}
+
+void ReplayPipeline::write_drops(JsonWriter& w, const ReplaySummary& s) const {
   w.begin_object("drops")
-      .value("imu_out_of_order", out_of_order_imu_)
+      .value("imu_out_of_order", vio_.counters().imu_out_of_order)
       .value("frontend_rejected_frames", s.frontend_rejected_frames)
       .value("report_series", series_dropped_);
-  if (estimator_ != nullptr) {
-    const EstimatorStats& e = estimator_->stats();
+  if (const Estimator* est = vio_.estimator()) {
+    const EstimatorStats& e = est->stats();
     w.value("landmarks", e.drops_landmarks)
         .value("visual_residuals", e.drops_residuals)
         .value("imu_interval", e.drops_imu)
@@ -281,7 +257,8 @@ void ReplayPipeline::write_stats(JsonWriter& w) const {
 }
 
 void ReplayPipeline::write_estimator_stats(JsonWriter& w) const {
-  const EstimatorStats& e = estimator_->stats();
+  const Estimator& est = *vio_.estimator();
+  const EstimatorStats& e = est.stats();
   const double t0_ns = static_cast<double>(e.first_frame_t_ns);
   w.begin_object("init")
       .value("success", e.initialized)
@@ -299,11 +276,11 @@ void ReplayPipeline::write_estimator_stats(JsonWriter& w) const {
   }
   w.end_array();
   w.begin_object("estimator")
-      .value("mode", to_string(estimator_->mode()))
+      .value("mode", to_string(est.mode()))
       .value("frames_imu_only", e.frames_in_mode[0])
       .value("frames_vo", e.frames_in_mode[1])
       .value("frames_vio", e.frames_in_mode[2])
-      .value("poses_written", poses_written_)
+      .value("poses_written", poses_.poses_written())
       .value("frames_without_pose", e.frames_without_pose)
       .value("solves", e.solves)
       .value("mean_landmarks_in_solve", e.frames_solved > 0 ? e.sum_landmarks_in_solve / static_cast<double>(e.frames_solved) : 0.0, 4)
@@ -337,7 +314,7 @@ void ReplayPipeline::print_summary(std::ostream& out) const {
     out << "replay: saturation element clipped " << s.saturated_samples << " IMU samples\n";
   }
   out << "replay: steady-state heap allocations in the pipeline: "
-      << summary_.heap_allocs_steady_state << "\n";
+      << s.heap_allocs_steady_state << "\n";
 }
 
 }  // namespace ums::cli

@@ -1,20 +1,20 @@
 #pragma once
-// The pipeline a replay (and later the live app) pushes measurements into: timing per stage,
-// steady-state allocation accounting and the stages that exist. It owns no threads; the caller
-// pushes in time order.
+// The board's wrapper around the core pipeline (core/pipeline/vio_pipeline.hpp) that a replay,
+// the live app and the sweep push measurements into: options from the AppConfig, the TUM pose
+// files, timing per stage, steady-state allocation accounting, the report's per-frame series,
+// stats.json and the printed summary. It owns no threads; the caller pushes in time order.
 
 #include <cstdint>
 #include <cstdio>
-#include <memory>
 #include <ostream>
 #include <vector>
 
 #include "board/config/app_config.hpp"
+#include "board/host/tum_pose_sink.hpp"
 #include "core/common/measurement_sink.hpp"
-#include "core/frontend/frame_features.hpp"
-#include "core/frontend/frontend.hpp"
 #include "core/estimator/estimator.hpp"
-#include "core/imu/saturation.hpp"
+#include "core/frontend/frame_features.hpp"
+#include "core/pipeline/vio_pipeline.hpp"
 #include "profiling/json_writer.hpp"
 #include "profiling/stage_timer.hpp"
 
@@ -51,20 +51,24 @@ class ReplayPipeline final : public MeasurementSink {
  public:
   ReplayPipeline(const AppConfig& config, const ReplayPipelineOptions& options);
   ~ReplayPipeline() override;
+  ReplayPipeline(const ReplayPipeline&) = delete;
+  ReplayPipeline& operator=(const ReplayPipeline&) = delete;
 
   void on_imu(const ImuSample& sample) override;
   void on_stereo(const StereoFrame& frame) override;
 
-  std::uint64_t frames() const { return summary_.frames; }
+  std::uint64_t frames() const { return vio_.counters().frames; }
   void set_static_bytes(std::size_t bytes) { static_bytes_ = bytes; }
-  bool has_estimator() const { return estimator_ != nullptr; }
-  const Estimator* estimator() const { return estimator_.get(); }
+  bool has_estimator() const { return vio_.estimator() != nullptr; }
+  const Estimator* estimator() const { return vio_.estimator(); }
   // Where one body pose per frame goes (TUM: t_s x y z qx qy qz qw), written as frames are
   // processed; nullptr: nowhere. The caller owns the file.
-  void set_trajectory_output(std::FILE* file) { trajectory_ = file; }
+  void set_trajectory_output(std::FILE* file) { poses_.set_trajectory_output(file); }
   // Where the IMU-rate pose goes (same format, one line per IMU sample once a pose exists).
-  void set_imu_pose_output(std::FILE* file) { imu_poses_ = file; }
-  std::uint64_t poses_written() const { return poses_written_; }
+  void set_imu_pose_output(std::FILE* file) { poses_.set_imu_pose_output(file); }
+  // Keyframe images for later use (none by default); not owned.
+  void set_keyframe_image_sink(KeyframeImageSink* sink) { vio_.set_keyframe_image_sink(sink); }
+  std::uint64_t poses_written() const { return poses_.poses_written(); }
   const StageTimes& stage_times() const { return *times_; }
   ReplaySummary summary() const;
 
@@ -85,29 +89,22 @@ class ReplayPipeline final : public MeasurementSink {
 
  private:
   void note_time(std::int64_t t_ns);
+  void record_stage_times(const VioFrameRecord& frame);
+  void record_series(const StereoFrame& frame, double total_ms);
+  void write_timing_stats(JsonWriter& w) const;
+  void write_memory_stats(JsonWriter& w) const;
+  void write_drops(JsonWriter& w, const ReplaySummary& s) const;
   void write_estimator_stats(JsonWriter& w) const;
   void accumulate_features(const FrameFeatures& f);
 
-  AppConfig config_;
   ReplayPipelineOptions options_;
   StageTimes* times_;  // large fixed windows: allocated once here, never per frame
-  ReplaySummary summary_;
+  ReplaySummary summary_;  // the times and allocations measured here; counts come from vio_
   std::int64_t first_t_ns_ = -1;
   std::int64_t last_t_ns_ = -1;
-  std::int64_t last_imu_t_ns_ = -1;
-  std::uint64_t out_of_order_imu_ = 0;
 
-  SaturationElement saturation_;
-  Frontend frontend_;
-  std::unique_ptr<Estimator> estimator_;  // null with frontend_only
-  std::FILE* trajectory_ = nullptr;
-  std::FILE* imu_poses_ = nullptr;
-  std::uint64_t poses_written_ = 0;
-  FrameFeatures* features_;  // one frame's features, allocated once
-  // Gyro-integrated rotation of the body since the previous frame: the front end's KLT hint.
-  Eigen::Quaterniond q_bprev_bcurr_ = Eigen::Quaterniond::Identity();
-  Eigen::Quaterniond q_b_c0_ = Eigen::Quaterniond::Identity();
-  bool have_imu_since_frame_ = false;
+  TumPoseSink poses_;
+  VioPipeline vio_;
   // Running sums for the summary.
   double sum_3d_ = 0.0, sum_2d_left_ = 0.0, sum_2d_right_ = 0.0;
   double sum_track_length_ = 0.0, observations_ = 0.0;
@@ -116,7 +113,6 @@ class ReplayPipeline final : public MeasurementSink {
   std::size_t peak_features_ = 0;
   FrameSeries series_;
   std::uint64_t series_dropped_ = 0;
-  std::uint64_t frontend_rejected_before_ = 0;
   std::size_t static_bytes_ = 0;
 };
 

@@ -1,0 +1,87 @@
+#include "core/pipeline/vio_pipeline.hpp"
+
+#include <chrono>
+#include <cmath>
+
+#include "core/math/so3.hpp"
+
+namespace ums {
+
+VioPipeline::VioPipeline(const VioPipelineOptions& options, const FrontendOptions& frontend,
+                         const EstimatorOptions& estimator, const RigCalibration& rig)
+    : td_ns_(static_cast<std::int64_t>(std::llround(rig.td_s * 1e9))),
+      saturation_(options.saturation),
+      frontend_(frontend, rig),
+      estimator_(options.frontend_only ? nullptr : new Estimator(estimator, rig)),
+      features_(new FrameFeatures()),
+      q_b_c0_(rig.cam[0].T_b_c.rotation()) {}
+
+VioPipeline::~VioPipeline() = default;
+
+void VioPipeline::on_imu(const ImuSample& sample) {
+  if (sample.t_ns <= last_imu_t_ns_) {
+    ++counters_.imu_out_of_order;  // a source bug: count, never pass on
+    return;
+  }
+  ImuSample clipped;
+  const bool saturated = saturation_.apply(sample, &clipped);
+  if (saturated) ++counters_.saturated_samples;
+  integrate_hint(sample, clipped);
+  last_imu_t_ns_ = sample.t_ns;
+  ++counters_.imu_samples;
+  if (estimator_ == nullptr) return;
+  estimator_->add_imu(clipped, saturated);
+  NavState nav;
+  if (pose_sink_ != nullptr && counters_.frames > 0 && estimator_->imu_rate_state(&nav)) {
+    pose_sink_->on_imu_pose(sample.t_ns, nav);
+  }
+}
+
+void VioPipeline::integrate_hint(const ImuSample& sample, const ImuSample& clipped) {
+  if (last_imu_t_ns_ < 0 || counters_.frames == 0) return;
+  // Rotation hint only: raw gyro (bias of a few mrad/s moves KLT starts by < 0.1 px at 20 Hz).
+  const double dt_s = static_cast<double>(sample.t_ns - last_imu_t_ns_) * 1e-9;
+  q_bprev_bcurr_ = (q_bprev_bcurr_ * so3::exp_quat(clipped.gyro_rad_s * dt_s)).normalized();
+  have_imu_since_frame_ = true;
+}
+
+void VioPipeline::on_stereo(const StereoFrame& frame) {
+  // The camera-IMU offset, applied here and nowhere else: from now on the frame is on the IMU
+  // clock (t_imu = t_cam + td_s).
+  StereoFrame f = frame;
+  f.t_ns += td_ns_;
+  ++counters_.frames;
+  record_ = VioFrameRecord{};
+  record_.t_ns = f.t_ns;
+  run_frontend(f);
+  if (record_.frontend_status == Status::kOk && estimator_ != nullptr) run_estimator(f);
+}
+
+void VioPipeline::run_frontend(const StereoFrame& frame) {
+  const auto start = std::chrono::steady_clock::now();
+  // cam0 rotation between frames from the body rotation: R_c0prev_c0curr = R_c0_b R R_b_c0.
+  const Eigen::Quaterniond q_c0prev_c0curr = q_b_c0_.conjugate() * q_bprev_bcurr_ * q_b_c0_;
+  record_.frontend_status =
+      frontend_.process(frame, have_imu_since_frame_ ? &q_c0prev_c0curr : nullptr, features_.get());
+  record_.frontend_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  q_bprev_bcurr_.setIdentity();
+  have_imu_since_frame_ = false;
+  if (record_.frontend_status != Status::kOk) ++counters_.frontend_rejected_frames;
+}
+
+void VioPipeline::run_estimator(const StereoFrame& frame) {
+  const std::uint64_t refused_before = estimator_->stats().frames_out_of_order;
+  estimator_->add_frame(*features_, &record_.estimate, &record_.timing);
+  record_.estimated = true;
+  const EstimatorOutput& est = record_.estimate;
+  if (est.keyframe) ++counters_.keyframes;
+  if (est.valid && pose_sink_ != nullptr) pose_sink_->on_frame_pose(est);
+  // A frame the estimator refused (out of order) repeats the previous output: not a keyframe.
+  const bool processed = estimator_->stats().frames_out_of_order == refused_before;
+  if (est.keyframe && processed && keyframe_sink_ != nullptr) {
+    keyframe_sink_->on_keyframe_image(est.frame_id, est.t_ns, frame.left);
+  }
+}
+
+}  // namespace ums

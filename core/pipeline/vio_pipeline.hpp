@@ -1,0 +1,101 @@
+#pragma once
+// The processing pipeline of one stereo-inertial stream: what every source (replay, simulator,
+// D455) pushes into and what every program (replay, live, sweep) runs.
+//
+//   on_imu:    time order check -> saturation element -> gyro rotation hint -> Estimator::add_imu
+//              -> PoseSink::on_imu_pose (once a pose exists)
+//   on_stereo: + rig td_s (the only place the camera-IMU offset is applied) -> Frontend (with the
+//              hint) -> Estimator::add_frame -> PoseSink::on_frame_pose (when valid),
+//              KeyframeImageSink::on_keyframe_image (when a keyframe)
+//
+// It owns the saturation element, the front end, the estimator (none when frontend_only) and one
+// frame's features, all allocated in the constructor; on_imu / on_stereo allocate nothing. It
+// owns no thread, no file and no clock of its own (the board times and counts around it); the
+// caller pushes in time order from one thread. What the last frame did (status, features, the
+// estimate, stage timings) stays readable until the next on_stereo.
+
+#include <cstdint>
+#include <memory>
+
+#include <Eigen/Geometry>
+
+#include "core/common/calibration.hpp"
+#include "core/common/measurement_sink.hpp"
+#include "core/common/status.hpp"
+#include "core/estimator/estimator.hpp"
+#include "core/frontend/frame_features.hpp"
+#include "core/frontend/frontend.hpp"
+#include "core/imu/saturation.hpp"
+#include "core/pipeline/keyframe_image_sink.hpp"
+#include "core/pipeline/pose_sink.hpp"
+
+namespace ums {
+
+struct VioPipelineOptions {
+  bool frontend_only = false;      // run the front end and stop there (no estimator, no poses)
+  SaturationOptions saturation;    // the IMU saturation element ahead of everything else
+};
+
+// What one on_stereo did.
+struct VioFrameRecord {
+  std::int64_t t_ns = 0;                   // the frame's time on the IMU clock (stamp + td_s)
+  Status frontend_status = Status::kOk;    // kOk: features() holds this frame's features
+  double frontend_ms = 0.0;                // ms, wall time of Frontend::process
+  bool estimated = false;                  // the estimator ran: estimate and timing are this frame's
+  EstimatorOutput estimate;
+  EstimatorTiming timing;
+};
+
+struct VioPipelineCounters {
+  std::uint64_t frames = 0;                    // stereo frames pushed
+  std::uint64_t imu_samples = 0;               // IMU samples passed on
+  std::uint64_t imu_out_of_order = 0;          // not after the previous sample: dropped (a source bug)
+  std::uint64_t saturated_samples = 0;         // clipped by the saturation element
+  std::uint64_t frontend_rejected_frames = 0;  // refused by the front end (size mismatch, no left)
+  std::uint64_t keyframes = 0;                 // estimates that said keyframe
+};
+
+class VioPipeline final : public MeasurementSink {
+ public:
+  // Start-up: the front end and the estimator validate their options (std::invalid_argument)
+  // and allocate every buffer here.
+  VioPipeline(const VioPipelineOptions& options, const FrontendOptions& frontend,
+              const EstimatorOptions& estimator, const RigCalibration& rig);
+  ~VioPipeline() override;
+  VioPipeline(const VioPipeline&) = delete;
+  VioPipeline& operator=(const VioPipeline&) = delete;
+
+  void on_imu(const ImuSample& sample) override;
+  void on_stereo(const StereoFrame& frame) override;
+
+  // Not owned; nullptr: the output is not produced. Set between pushes.
+  void set_pose_sink(PoseSink* sink) { pose_sink_ = sink; }
+  void set_keyframe_image_sink(KeyframeImageSink* sink) { keyframe_sink_ = sink; }
+
+  const Estimator* estimator() const { return estimator_.get(); }  // nullptr with frontend_only
+  const VioPipelineCounters& counters() const { return counters_; }
+  const VioFrameRecord& last_frame() const { return record_; }
+  const FrameFeatures& features() const { return *features_; }  // the last frame's (frontend_status kOk)
+
+ private:
+  void integrate_hint(const ImuSample& sample, const ImuSample& clipped);
+  void run_frontend(const StereoFrame& frame);
+  void run_estimator(const StereoFrame& frame);
+
+  std::int64_t td_ns_;  // rig td_s: t_imu = t_cam + td
+  SaturationElement saturation_;
+  Frontend frontend_;
+  std::unique_ptr<Estimator> estimator_;
+  std::unique_ptr<FrameFeatures> features_;  // one frame's features, allocated once
+  PoseSink* pose_sink_ = nullptr;
+  KeyframeImageSink* keyframe_sink_ = nullptr;
+  VioPipelineCounters counters_;
+  VioFrameRecord record_;
+  std::int64_t last_imu_t_ns_ = -1;
+  // Gyro-integrated rotation of the body since the previous frame: the front end's KLT hint.
+  Eigen::Quaterniond q_bprev_bcurr_ = Eigen::Quaterniond::Identity();
+  Eigen::Quaterniond q_b_c0_ = Eigen::Quaterniond::Identity();
+  bool have_imu_since_frame_ = false;
+};
+
+}  // namespace ums
