@@ -159,9 +159,8 @@ TEST_CASE("pipeline on the EuRoC micro sequence: a pose per frame with one, keyf
 }
 
 // The estimator names its frames (EstimatorOutput::frame_id): the keyframe outlet passes the name
-// on. Expected to fail until the estimator fills frame_id (every output says kNoFrame today):
-// remove [!shouldfail] when it does.
-TEST_CASE("pipeline: keyframe images arrive with increasing FrameIds", "[pipeline][!shouldfail]") {
+// on, and names never repeat.
+TEST_CASE("pipeline: keyframe images arrive with increasing FrameIds", "[pipeline]") {
   const Run run = run_micro(0.0);
   REQUIRE(run.out.keyframes.size() >= 2);
   for (std::size_t i = 0; i < run.out.keyframes.size(); ++i) {
