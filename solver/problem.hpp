@@ -202,6 +202,7 @@ class Problem {
 
   // ---- marginalization (problem_marginalize.cpp) ----
   bool touches_marginalized(const Residual& rb) const;
+  SolverStatus marginalize_prepared(const BlockId* ids, int n, MarginalPrior* out);
   SolverStatus select_marginalized(const BlockId* ids, int n);
   SolverStatus linearize_marginalized();
   bool linearize_marginalized_landmark(int l);

@@ -18,9 +18,17 @@ struct Problem::MarginalRows {
 
 SolverStatus Problem::marginalize(const BlockId* ids, int n, MarginalPrior* out) {
   if (out == nullptr || n < 0) return SolverStatus::kInvalidInput;
-  SolverStatus st = prepare();
+  const SolverStatus st = prepare();
   if (st != SolverStatus::kOk) return st;
-  st = select_marginalized(ids, n);
+  const SolverStatus ms = marginalize_prepared(ids, n, out);
+  // The workspace was resized for the marginal system: it belongs to the solve layout again,
+  // whichever step stopped (a kFull or kSingular used to leave the problem marked prepared).
+  prepared_ = false;
+  return ms;
+}
+
+SolverStatus Problem::marginalize_prepared(const BlockId* ids, int n, MarginalPrior* out) {
+  SolverStatus st = select_marginalized(ids, n);
   if (st != SolverStatus::kOk) return st;
   st = linearize_marginalized();
   if (st != SolverStatus::kOk) return st;
@@ -32,10 +40,7 @@ SolverStatus Problem::marginalize(const BlockId* ids, int n, MarginalPrior* out)
     st = schur_marginalized(rows.dm, rows.dk);
     if (st != SolverStatus::kOk) return st;
   }
-  const SolverStatus ps = out->set_from_information(prior_blocks_, rows.nk, S_.m(), rhs_);
-  // The workspace sizes belong to the solve layout again.
-  prepared_ = false;
-  return ps;
+  return out->set_from_information(prior_blocks_, rows.nk, S_.m(), rhs_);
 }
 
 bool Problem::touches_marginalized(const Residual& rb) const {

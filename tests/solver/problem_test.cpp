@@ -686,3 +686,37 @@ TEST_CASE("Eliminated blocks of 2 and 3 dofs and odd block sizes: Schur step = d
 
 }  // namespace
 }  // namespace ums::solver
+
+namespace ums::solver {
+namespace {
+
+TEST_CASE("A marginalization refused as too large leaves the problem solvable as before", "[solver][problem]") {
+  // Four frames' poses and speed-biases are 60 dofs, above capacity::kMaxMarginalizedDim (48):
+  // kFull. The next solve on the same problem must reach the optimum of the untouched problem.
+  auto w = bench::make_vio_window(small_window(true, true));
+  auto problem = std::make_unique<Problem>();
+  REQUIRE(bench::add_to_problem(*w, *problem) == SolverStatus::kOk);
+  std::vector<BlockId> ids;
+  for (int f = 0; f < 4; ++f) {
+    ids.push_back(block_id(*w, BlockRef{BlockKind::kPose, f}));
+    ids.push_back(block_id(*w, BlockRef{BlockKind::kSpeedBias, f}));
+  }
+  // Their landmarks go with them (the solver requires it).
+  for (int l = 0; l < static_cast<int>(w->inv_depth.size()); ++l)
+    ids.push_back(block_id(*w, BlockRef{BlockKind::kInverseDepth, l}));
+  MarginalPrior prior;
+  REQUIRE(problem->marginalize(ids.data(), static_cast<int>(ids.size()), &prior) == SolverStatus::kFull);
+  SolverOptions opt;
+  opt.function_tolerance = 1e-12;
+  SolverSummary sum;
+  CHECK(usable(problem->solve(opt, &sum)));
+  CHECK(sum.final_cost < 1e-12);
+  double pos_err = 0.0;
+  for (std::size_t i = 0; i < w->poses.size(); ++i)
+    for (int k = 0; k < 3; ++k)
+      pos_err = std::max(pos_err, std::abs(w->poses[i][static_cast<std::size_t>(k)] - w->poses_true[i][static_cast<std::size_t>(k)]));
+  CHECK(pos_err < 1e-7);  // m
+}
+
+}  // namespace
+}  // namespace ums::solver
