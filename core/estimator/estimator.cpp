@@ -20,10 +20,6 @@
 namespace ums {
 namespace {
 
-double ms_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
-
 // Validated options with the IMU noise from the calibration, inflated (unmodelled effects).
 EstimatorOptions prepared(const EstimatorOptions& in, const RigCalibration& rig) {
   in.validate();
@@ -59,10 +55,6 @@ LandmarkMapOptions landmark_options(const EstimatorOptions& o) {
   return LandmarkMapOptions{o.min_depth_m, o.max_depth_m, o.min_triangulation_angle_deg};
 }
 
-// Minimal rotation taking direction a onto b.
-Eigen::Matrix3d rotation_between(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
-  return Eigen::Quaterniond::FromTwoVectors(a, b).toRotationMatrix();
-}
 
 }  // namespace
 
@@ -87,6 +79,10 @@ Estimator::Estimator(const EstimatorOptions& options, const RigCalibration& rig)
 }
 
 Estimator::~Estimator() = default;
+
+double Estimator::ms_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
 
 std::size_t Estimator::footprint_bytes() const {
   return sizeof(*this) + Window::kSlots * sizeof(WindowFrame) + sizeof(ImuBuffer) +

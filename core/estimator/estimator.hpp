@@ -22,6 +22,7 @@
 // odometry frame of the output. Fixed memory: every part allocates in the constructor;
 // add_imu / add_frame allocate nothing.
 
+#include <chrono>
 #include <cstdint>
 #include <memory>
 
@@ -112,6 +113,8 @@ class Estimator {
   std::size_t landmarks_in_use() const;
 
  private:
+  static double ms_since(std::chrono::steady_clock::time_point t0);
+
   // Steps of add_frame.
   bool out_of_order(const FrameFeatures& ff, EstimatorOutput* out);
   StandstillResult begin_frame(const FrameFeatures& ff, WindowFrame& f);

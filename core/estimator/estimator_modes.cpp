@@ -15,14 +15,6 @@
 #include "core/estimator/window_backup.hpp"
 
 namespace ums {
-namespace {
-
-double ms_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
-
-}  // namespace
-
 ModeEvent Estimator::frame_imu_only(WindowFrame& f) {
   // Case 1: the pose is the IMU's; keep trying the stereo visual initialization.
   if (window_->size() < 2) {

@@ -17,10 +17,6 @@
 namespace ums {
 namespace {
 
-// Minimal rotation taking direction a onto b.
-Eigen::Matrix3d rotation_between(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
-  return Eigen::Quaterniond::FromTwoVectors(a, b).toRotationMatrix();
-}
 
 using Vector9 = SpeedBiasPrior::Vector9;
 

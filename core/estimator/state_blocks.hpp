@@ -20,6 +20,10 @@ void set_quat(double* pose, const Eigen::Quaterniond& q);
 // Rotation written as its quaternion without normalizing (the rotation matrix is orthonormal).
 void pose_from_iso(const Eigen::Isometry3d& T, double* pose);
 Eigen::Isometry3d iso_from_pose(const double* pose);
+// Minimal rotation taking direction a onto b (levelling to gravity).
+inline Eigen::Matrix3d rotation_between(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return Eigen::Quaterniond::FromTwoVectors(a, b).toRotationMatrix();
+}
 NavState nav_from_blocks(const double* pose, const double* sb);
 void blocks_from_nav(const NavState& s, double* pose, double* sb);
 
