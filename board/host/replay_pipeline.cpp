@@ -29,6 +29,11 @@ EstimatorOptions estimator_options_from(const AppConfig& config, const ReplayPip
   o.max_iterations_round2 = config.max_num_iterations;
   o.round2_time_s = pipeline.deterministic ? std::numeric_limits<double>::infinity() : config.max_solver_time_s;
   o.preintegration.noise = ImuNoise::from_calibration(config.rig.imu);
+  o.imu_noise_inflation = config.imu_noise_scale;
+  o.max_landmarks_in_solve = config.max_landmarks_in_solve;
+  o.beta_3d = config.beta_3d;
+  o.beta_2d = config.beta_2d;
+  o.min_stereo_disparity_px = config.min_stereo_disparity_px;
   return o;
 }
 
@@ -296,7 +301,8 @@ void ReplayPipeline::write_estimator_stats(JsonWriter& w) const {
       .value("visual_init_failures", e.visual_init_failures)
       .value("align_attempts", e.align_attempts)
       .value("align_failures", e.align_failures)
-      .value("align_disagreements", e.align_disagreements)
+      .value("align_unobservable", e.align_unobservable)
+      .value("align_tilt_sigma_deg", e.align_tilt_sigma_deg)
       .value("imu_samples_held", e.imu_held)
       .value("still_frames", e.still_frames)
       .value("still_rejected_by_vision", e.still_rejected_by_vision)

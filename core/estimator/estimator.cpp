@@ -35,8 +35,8 @@ EstimatorOptions prepared(const EstimatorOptions& in, const RigCalibration& rig)
 
 ProblemBuilderOptions builder_options(const EstimatorOptions& o) {
   ProblemBuilderOptions b;
-  b.weight_left = o.focal_px / o.sigma_px * o.beta_left;
-  b.weight_right = o.focal_px / o.sigma_px * o.beta_right;
+  b.weight_3d = o.focal_px / o.sigma_px * o.beta_3d;
+  b.weight_2d = o.focal_px / o.sigma_px * o.beta_2d;
   b.huber_rad = o.huber_px / o.sigma_px;
   b.outlier_rad = o.outlier_px / o.focal_px;
   b.min_depth_m = o.min_depth_m;
@@ -52,7 +52,8 @@ ProblemBuilderOptions builder_options(const EstimatorOptions& o) {
 }
 
 LandmarkMapOptions landmark_options(const EstimatorOptions& o) {
-  return LandmarkMapOptions{o.min_depth_m, o.max_depth_m, o.min_triangulation_angle_deg};
+  return LandmarkMapOptions{o.min_depth_m, o.max_depth_m, o.min_triangulation_angle_deg,
+                            o.min_stereo_disparity_px / o.focal_px};
 }
 
 
@@ -207,10 +208,15 @@ void Estimator::initial_state(WindowFrame& f, const StandstillResult& rest) {
   }
 }
 
+Eigen::Matrix3d Estimator::c0_from_c1() const {
+  const Extrinsics& e = window_->extrinsics();
+  return e.T_b_c(0).linear().transpose() * e.T_b_c(1).linear();
+}
+
 void Estimator::observe(const FrameFeatures& ff, WindowFrame& f, const StandstillResult& rest) {
   window_->push_next();
   const int slot = window_->slot_of(f);
-  stats_.drops_landmarks += static_cast<std::uint64_t>(landmarks_->ingest(ff, slot));
+  stats_.drops_landmarks += static_cast<std::uint64_t>(landmarks_->ingest(ff, slot, c0_from_c1()));
   // The IMU alone cannot tell rest from uniform motion (both read gravity and no rotation): when
   // the images can tell, they must agree that nothing moves.
   const int n = window_->size();

@@ -11,9 +11,9 @@
 //             with the two-stage feature use, outlier removal, a second time-bounded round, then
 //             marginalization (oldest when the new frame is a keyframe, else the second newest).
 // Alignment (case 2): gyro bias from relative rotations, gravity and velocities by least squares
-// (stereo fixes the scale), then the loosely coupled BA run twice, the second time from a start
-// tilted by align_perturb_deg: if the two disagree on gravity or accelerometer bias the IMU did
-// not observe them (e.g. uniform motion) and the estimator stays in VO. At rest the IMU gives
+// (stereo fixes the scale), then an observability test (the window must know gravity's direction,
+// or the accelerometer must be excited; uniform motion is neither and stays in VO), then the
+// loosely coupled BA. At rest the IMU gives
 // gravity, zero velocity and the gyro bias directly (standstill start: initialized at once).
 //
 // The Estimator orchestrates narrow parts (docs/estimator.md): Window (frames by FrameId, the
@@ -119,6 +119,7 @@ class Estimator {
   bool out_of_order(const FrameFeatures& ff, EstimatorOutput* out);
   StandstillResult begin_frame(const FrameFeatures& ff, WindowFrame& f);
   void initial_state(WindowFrame& f, const StandstillResult& rest);
+  Eigen::Matrix3d c0_from_c1() const;  // right camera to left, from the current extrinsics
   void observe(const FrameFeatures& ff, WindowFrame& f, const StandstillResult& rest);
   void run_mode(WindowFrame& f, EstimatorTiming* timing);
   void guard_divergence(WindowFrame& f);

@@ -17,8 +17,8 @@ void require(bool ok, const char* field, double value) {
 void EstimatorOptions::validate() const {
   require(sigma_px > 0.0, "sigma_px", sigma_px);
   require(focal_px > 0.0, "focal_px", focal_px);
-  require(beta_left > 0.0, "beta_left", beta_left);
-  require(beta_right > 0.0, "beta_right", beta_right);
+  require(beta_3d > 0.0, "beta_3d", beta_3d);
+  require(beta_2d > 0.0, "beta_2d", beta_2d);
   require(huber_px > 0.0, "huber_px", huber_px);
   require(gravity_m_s2 > 5.0 && gravity_m_s2 < 15.0, "gravity_m_s2", gravity_m_s2);
   require(window_size >= 4 && window_size <= static_cast<int>(capacity::kWindowSize), "window_size", window_size);
@@ -33,11 +33,12 @@ void EstimatorOptions::validate() const {
   require(max_iterations_round2 >= 0, "max_iterations_round2", max_iterations_round2);
   require(round2_time_s >= 0.0, "round2_time_s", round2_time_s);
   require(min_align_frames >= 3 && min_align_frames <= window_size, "min_align_frames", min_align_frames);
-  require(align_perturb_deg > 0.0, "align_perturb_deg", align_perturb_deg);
-  require(align_agree_deg > 0.0, "align_agree_deg", align_agree_deg);
+  require(align_max_tilt_sigma_deg > 0.0, "align_max_tilt_sigma_deg", align_max_tilt_sigma_deg);
+  require(align_min_excitation_m_s2 > 0.0, "align_min_excitation_m_s2", align_min_excitation_m_s2);
   require(standstill_window_s >= standstill.min_window_s, "standstill_window_s", standstill_window_s);
   require(still_sigma_m > 0.0 && still_sigma_rad > 0.0 && still_sigma_v > 0.0, "still_sigma_m", still_sigma_m);
-  require(imu_noise_inflation >= 1.0, "imu_noise_inflation", imu_noise_inflation);
+  require(imu_noise_inflation > 0.0, "imu_noise_inflation", imu_noise_inflation);
+  require(min_stereo_disparity_px >= 0.0, "min_stereo_disparity_px", min_stereo_disparity_px);
   preintegration.validate();
   keyframe.validate();
   standstill.validate();

@@ -14,8 +14,8 @@ struct EstimatorOptions {
   // --- measurement model ---
   double sigma_px = 1.5;             // px, feature noise (VINS-Fusion: focal / 1.5)
   double focal_px = 460.0;           // px, turns sigma_px into radians on the bearing tangent plane
-  double beta_left = 1.0;            // 1, paper eq. (5) beta1: weight of left-camera observations
-  double beta_right = 1.0;           // 1, paper eq. (5) beta2: weight of right-camera observations
+  double beta_3d = 1.0;              // 1, paper eq. (5) beta1: weight of 3D (stereo) landmarks' residuals
+  double beta_2d = 1.0;              // 1, paper eq. (5) beta2: weight of 2D (one-camera) landmarks' residuals
   double huber_px = 1.5;             // px, Huber threshold on the visual residuals
   double gravity_m_s2 = 9.81;        // m/s^2
   bool estimate_extrinsic = false;   // optimize T_b_c0 / T_b_c1 in the window
@@ -29,6 +29,8 @@ struct EstimatorOptions {
   int max_landmarks_in_solve = 100;       // landmarks per solve, best first (paper: best 100-300)
   double min_depth_m = 0.1;               // m, landmarks closer are rejected
   double max_depth_m = 60.0;              // m, landmarks farther are not used (no parallax)
+  double min_stereo_disparity_px = 0.0;   // px at focal_px: a stereo match with less disparity
+                                          // carries no depth and enters as a 2D feature
   double min_triangulation_angle_deg = 0.4;  // deg, ray angle needed to triangulate a 2D feature
   double outlier_px = 3.0;                // px, observation error that marks a landmark as an outlier
 
@@ -47,11 +49,12 @@ struct EstimatorOptions {
   // --- initialization (paper Sec. III-B) ---
   int min_init_3d = 20;                   // 3D features with depth needed for visual init / PnP
   int min_align_frames = 8;               // window frames needed for the visual-IMU alignment
-  double min_align_span_s = 1.0;          // s, time spanned by them
+  double min_align_span_s = 0.45;         // s, time spanned by them
   double max_gravity_error_m_s2 = 0.6;    // m/s^2, | |g_LS| - g | accepted from the least squares
-  double align_perturb_deg = 3.0;         // deg, tilt of the second loosely coupled BA's start
-  double align_agree_deg = 1.0;           // deg, the two loosely coupled BAs must agree on gravity
-  double align_agree_ba_m_s2 = 0.1;       // m/s^2, ... and on the accelerometer bias
+  double align_max_tilt_sigma_deg = 0.5;  // deg, the window's information must give gravity's
+                                          // direction this well (1 sigma, b_a prior included)
+  double align_min_excitation_m_s2 = 0.2; // m/s^2, ... or the accelerometer must be this excited
+                                          // (RMS spread of the intervals' mean accelerations)
   int align_retry_frames = 10;             // frames between alignment attempts in VO
   double init_bias_sigma_ba = 0.2;        // m/s^2, prior on b_a at initialization
   double init_bias_sigma_bg = 0.02;       // rad/s, prior on b_g at initialization

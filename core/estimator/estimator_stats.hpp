@@ -29,7 +29,8 @@ struct EstimatorStats {
   std::uint64_t visual_init_failures = 0;
   std::uint64_t align_attempts = 0;
   std::uint64_t align_failures = 0;     // any step of case 2 failed
-  std::uint64_t align_disagreements = 0;  // the two loosely coupled BAs differed
+  std::uint64_t align_unobservable = 0;   // refused: gravity's direction not known well enough
+  double align_tilt_sigma_deg = -1.0;     // deg, of the last attempt that got that far
   std::uint64_t solves = 0;
   std::uint64_t stage_kept_2d_left = 0;   // 3D vs 3D+2D-left agreed
   std::uint64_t stage_added_2d_right = 0; // disagreed or too few 3D: all classes

@@ -33,8 +33,7 @@ Initializer::Initializer(const EstimatorOptions& options, const RigCalibration& 
       builder_(builder),
       marginalizer_(marginalizer),
       stats_(stats),
-      vo_state_(std::make_unique<WindowBackup>()),
-      start_state_(std::make_unique<WindowBackup>()) {}
+      vo_state_(std::make_unique<WindowBackup>()) {}
 
 Initializer::~Initializer() = default;
 
@@ -119,12 +118,12 @@ ModeEvent Initializer::standstill(const StandstillResult& rest) {
   return ModeEvent::kStandstill;
 }
 
-ModeEvent Initializer::fail(bool disagreement) {
+ModeEvent Initializer::fail(bool unobservable) {
   restore_window(*vo_state_, window_, landmarks_);
   builder_->clear_init_prior();
   marginalizer_->clear();
   ++stats_->align_failures;
-  if (disagreement) ++stats_->align_disagreements;
+  if (unobservable) ++stats_->align_unobservable;
   return ModeEvent::kNone;
 }
 
@@ -133,20 +132,47 @@ ModeEvent Initializer::align() {
   save_window(*window_, *landmarks_, vo_state_.get());  // the VO state, restored on failure
   Eigen::Vector3d bg = Eigen::Vector3d::Zero();
   if (!imu_initialization(&bg)) return fail(false);
-  Eigen::Vector3d ba = Eigen::Vector3d::Zero();
-  if (!loosely_coupled_agree(bg, &ba)) return ModeEvent::kNone;
-  for (int k = 0; k < window_->size(); ++k)
-    if (!Eigen::Map<const Vector9>(window_->at(k).sb).allFinite()) return fail(false);
-  // Accepted: from now on the bias prior also holds the accelerometer bias near the solution.
+  if (!observable()) return fail(true);
+  // The loosely coupled BA, with the bias priors the tightly coupled window then keeps.
   Vector9 target = Vector9::Zero();
   target.segment<3>(state::kSbBg) = bg;
-  target.segment<3>(state::kSbBa) = ba;
   Vector9 sigma = Vector9::Zero();
   sigma.segment<3>(state::kSbBg).setConstant(options_.init_bias_sigma_bg);
   sigma.segment<3>(state::kSbBa).setConstant(options_.init_bias_sigma_ba);
   builder_->set_init_prior(target, sigma, window_->at(0).id);
+  marginalizer_->clear();
+  SolveSpec spec;
+  spec.groups = kAllGroups;
+  spec.imu = true;
+  spec.prior = false;
+  constexpr int kAlignIterations = 8;
+  if (!builder_->solve(spec, kAlignIterations, 1e9)) return fail(false);
+  for (int k = 0; k < window_->size(); ++k)
+    if (!Eigen::Map<const Vector9>(window_->at(k).sb).allFinite()) return fail(false);
   if (builder_->mark_outliers() > 0) landmarks_->compact();
   return ModeEvent::kAlignment;
+}
+
+bool Initializer::observable() {
+  // Decided from the information the window has on gravity's direction (not from two solves
+  // agreeing, which refuses whenever the second start does not converge in time).
+  const int n = window_->size();
+  Eigen::Quaterniond q[capacity::kWindowSize];
+  const Preintegration* pre[capacity::kWindowSize];
+  for (int k = 0; k < n; ++k) {
+    WindowFrame& f = window_->at(k);
+    q[k] = quat_of(f.pose).normalized();
+    pre[k] = k > 0 && f.pre.num_samples() >= 2 ? &f.pre : nullptr;
+  }
+  AlignmentObservability obs;
+  if (alignment_observability(q, pre, n, g_w_, options_.init_bias_sigma_ba, &obs) != Status::kOk) return false;
+  stats_->align_tilt_sigma_deg = obs.tilt_sigma_rad * 180.0 / M_PI;
+  // Rotation makes gravity's direction observable on its own; without it, an excited
+  // accelerometer (the intervals' accelerations differ well beyond noise) still tests the
+  // alignment's velocities against vision, and the tilt stays within the bias prior's bound.
+  // Uniform motion has neither: the paper's case for staying in VO.
+  return stats_->align_tilt_sigma_deg <= options_.align_max_tilt_sigma_deg ||
+         obs.accel_excitation_m_s2 >= options_.align_min_excitation_m_s2;
 }
 
 bool Initializer::imu_initialization(Eigen::Vector3d* bg_out) {
@@ -179,49 +205,6 @@ bool Initializer::imu_initialization(Eigen::Vector3d* bg_out) {
   window_->rotate(R_fix, state::p(window_->newest().pose));
   window_->update_imu_factors(g_w_);
   *bg_out = bg;
-  return true;
-}
-
-bool Initializer::loosely_coupled_agree(const Eigen::Vector3d& bg, Eigen::Vector3d* ba_out) {
-  // The loosely coupled BA twice, from the least-squares start and from a start tilted by
-  // align_perturb_deg; the accelerometer bias is left free so that an unobservable tilt shows up
-  // as a disagreement instead of being pulled back by a prior.
-  Vector9 target = Vector9::Zero();
-  target.segment<3>(state::kSbBg) = bg;
-  Vector9 sigma = Vector9::Zero();
-  sigma.segment<3>(state::kSbBg).setConstant(options_.init_bias_sigma_bg);
-  builder_->set_init_prior(target, sigma, window_->at(0).id);
-  marginalizer_->clear();
-  save_window(*window_, *landmarks_, start_state_.get());
-  SolveSpec spec;
-  spec.groups = kAllGroups;
-  spec.imu = true;
-  spec.prior = false;
-  constexpr int kAlignIterations = 8;
-  const Eigen::Vector3d pivot = state::p(window_->newest().pose);
-  const Eigen::Matrix3d R_perturb =
-      Eigen::AngleAxisd(options_.align_perturb_deg * M_PI / 180.0, Eigen::Vector3d::UnitX()).toRotationMatrix();
-  window_->rotate(R_perturb, pivot);
-  if (!builder_->solve(spec, kAlignIterations, 1e9)) {
-    fail(false);
-    return false;
-  }
-  const WindowFrame& f0 = window_->at(0);
-  const Eigen::Vector3d up2 = quat_of(f0.pose).normalized().conjugate() * Eigen::Vector3d::UnitZ();
-  const Eigen::Vector3d ba2 = state::ba(f0.sb);
-  restore_window(*start_state_, window_, landmarks_);
-  if (!builder_->solve(spec, kAlignIterations, 1e9)) {
-    fail(false);
-    return false;
-  }
-  const Eigen::Vector3d up1 = quat_of(f0.pose).normalized().conjugate() * Eigen::Vector3d::UnitZ();
-  const Eigen::Vector3d ba1 = state::ba(f0.sb);
-  const double tilt_deg = std::acos(std::min(1.0, up1.dot(up2))) * 180.0 / M_PI;
-  if (tilt_deg > options_.align_agree_deg || (ba1 - ba2).norm() > options_.align_agree_ba_m_s2) {
-    fail(true);
-    return false;
-  }
-  *ba_out = ba1;
   return true;
 }
 

@@ -45,13 +45,14 @@ class Initializer {
   bool visual_step(PnpLocator* pnp);
   // At rest the accelerometer measures gravity and the gyro its bias: kStandstill.
   ModeEvent standstill(const StandstillResult& rest);
-  // Case 2: IMU initialization, then the loosely coupled BA twice; kAlignment or kNone (restored).
+  // Case 2: IMU initialization, the observability test, then the loosely coupled BA; kAlignment
+  // or kNone (the VO state restored).
   ModeEvent align();
 
  private:
   bool imu_initialization(Eigen::Vector3d* bg);
-  bool loosely_coupled_agree(const Eigen::Vector3d& bg, Eigen::Vector3d* ba);
-  ModeEvent fail(bool disagreement);
+  bool observable();  // gravity's direction known to align_max_tilt_sigma_deg
+  ModeEvent fail(bool unobservable);
   bool vision_only_ba(int iterations);
 
   EstimatorOptions options_;
@@ -62,7 +63,7 @@ class Initializer {
   ProblemBuilder* builder_;
   Marginalizer* marginalizer_;
   EstimatorStats* stats_;
-  std::unique_ptr<WindowBackup> vo_state_, start_state_;
+  std::unique_ptr<WindowBackup> vo_state_;
 };
 
 }  // namespace ums

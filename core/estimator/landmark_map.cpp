@@ -39,9 +39,18 @@ int LandmarkMap::create(std::uint32_t id) {
   return idx;
 }
 
-int LandmarkMap::ingest(const FrameFeatures& ff, int slot) {
+bool LandmarkMap::too_far_for_stereo(const FeatureObservation& o, const Eigen::Matrix3d& R_c0_c1) const {
+  if (options_.min_stereo_parallax_rad <= 0.0 || !o.has_left() || !o.has_right()) return false;
+  const Eigen::Vector3d b_r = R_c0_c1 * o.bearing_right.cast<double>();
+  const double parallax_rad = std::atan2(o.bearing_left.cast<double>().cross(b_r).norm(),
+                                         o.bearing_left.cast<double>().dot(b_r));
+  return parallax_rad < options_.min_stereo_parallax_rad;
+}
+
+int LandmarkMap::ingest(const FrameFeatures& ff, int slot, const Eigen::Matrix3d& R_c0_c1) {
   int dropped = 0;
   for (const FeatureObservation& o : ff.features) {
+    const bool far = too_far_for_stereo(o, R_c0_c1);
     int idx = find(o.id);
     if (idx < 0) {
       idx = create(o.id);
@@ -59,10 +68,10 @@ int LandmarkMap::ingest(const FrameFeatures& ff, int slot) {
     LandmarkObservation& ob = l.obs[l.n_obs++];
     ob.slot = static_cast<std::uint8_t>(slot);
     ob.has_left = o.has_left();
-    ob.has_right = o.has_right();
+    ob.has_right = o.has_right() && !far;
     ob.bearing_left = o.bearing_left;
     ob.bearing_right = o.bearing_right;
-    if (o.cls == FeatureClass::k3D) l.stereo = true;
+    if (o.cls == FeatureClass::k3D && !far) l.stereo = true;
     l.track_length = o.track_length;
     // A host seen only on the right and later on the left keeps its right host (ids of 2D-right
     // tracks never become left tracks in the front end).

@@ -23,6 +23,8 @@ struct LandmarkMapOptions {
   double min_depth_m = 0.1;                 // m
   double max_depth_m = 60.0;                // m
   double min_triangulation_angle_deg = 0.4; // deg
+  double min_stereo_parallax_rad = 0.0;     // rad, a stereo match with less ray angle (a far point:
+                                            // disparity of a pixel or two) enters as 2D-left
 };
 
 class LandmarkMap {
@@ -47,7 +49,8 @@ class LandmarkMap {
   int find(std::uint32_t id) const;  // pool index, -1 if absent
 
   // The frame's features as observations of window slot `slot`; returns how many found no room.
-  int ingest(const FrameFeatures& ff, int slot);
+  // R_c0_c1 (right camera to left) measures a stereo match's parallax.
+  int ingest(const FrameFeatures& ff, int slot, const Eigen::Matrix3d& R_c0_c1);
   // Removes the observations of a window frame, rehosting the landmarks it hosted, then compacts.
   void remove_frame(int slot, const Window& window);
   void clear_observations();  // every landmark leaves (then compacts)
@@ -66,6 +69,7 @@ class LandmarkMap {
   const LandmarkMapOptions& options() const { return options_; }
 
  private:
+  bool too_far_for_stereo(const FeatureObservation& o, const Eigen::Matrix3d& R_c0_c1) const;
   int create(std::uint32_t id);
   void rehost(Landmark& l, const Window& window) const;
 

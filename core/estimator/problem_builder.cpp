@@ -124,8 +124,8 @@ int ProblemBuilder::block_id(const EdgeBlock& b, int lm_block) const {
 bool ProblemBuilder::add_landmark_edges(int pool_idx, int lm_block) {
   const Landmark& l = landmarks_->at_pool(pool_idx);
   const solver::RobustLoss huber = solver::RobustLoss::huber(options_.huber_rad);
+  const double w = l.stereo ? options_.weight_3d : options_.weight_2d;
   for_each_visual_edge(l, [&](const VisualEdge& e) {
-    const double w = e.cam == 0 ? options_.weight_left : options_.weight_right;
     BearingResidual& r = visual_[n_visual_];
     EdgeBlock blocks[5];
     const int nb = setup_visual_edge(l, e, w, pose_cache_.get(), &r, blocks);

@@ -27,8 +27,8 @@ class RelativePoseCache;
 struct EstimatorStats;
 
 struct ProblemBuilderOptions {
-  double weight_left = 1.0;   // 1/rad, whitening of left-camera bearing residuals
-  double weight_right = 1.0;  // 1/rad, right camera
+  double weight_3d = 1.0;  // 1/rad, whitening of a 3D (stereo) landmark's bearing residuals
+  double weight_2d = 1.0;  // 1/rad, of a 2D (one-camera) landmark's
   double huber_rad = 1.0;     // Huber threshold in whitened units (huber_px / sigma_px)
   double outlier_rad = 0.0;   // rad, observation error that marks an outlier (outlier_px / focal)
   double min_depth_m = 0.1;

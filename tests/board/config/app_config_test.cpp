@@ -197,6 +197,21 @@ TEST_CASE("a VINS-Fusion stereo-IMU config is read with its camodocal files and 
   CHECK(c.rig.cam[0].rate_hz == 20.0);
 }
 
+TEST_CASE("the back end's weights are keys of their own", "[config]") {
+  const std::string dir = ums::test::make_temp_dir("config_weights");
+  const std::string path = write_vins_config(
+      dir, std::string(kVinsConfig) +
+               "imu_noise_scale: 3.5\nmax_landmarks_in_solve: 200\nbeta_3d: 1.5\nbeta_2d: 0.5\nmin_stereo_disparity: 2\n");
+  std::vector<std::string> warnings;
+  const ums::AppConfig c = ums::load_config(path, micro_calibration(), &warnings);
+  CHECK(warnings.empty());
+  CHECK(c.imu_noise_scale == 3.5);
+  CHECK(c.max_landmarks_in_solve == 200);
+  CHECK(c.beta_3d == 1.5);
+  CHECK(c.beta_2d == 0.5);
+  CHECK(c.min_stereo_disparity_px == 2.0);
+}
+
 TEST_CASE("unknown keys warn with file and key, known VINS keys are silent", "[config]") {
   const std::string dir = ums::test::make_temp_dir("config_unknown");
   const std::string path = write_vins_config(dir, std::string(kVinsConfig) + "max_cnt_typo: 3\nuse_magic: 1\n");
@@ -246,6 +261,10 @@ TEST_CASE("each invalid value stops with file, key, value and the allowed range"
        "key 'body_T_cam1': expected a 4x4 matrix"},
       {"cam1_calib: \"cam1_pinhole.yaml\"", "cam1_calib: \"cam1_missing.yaml\"", "cam1_missing.yaml: cannot open"},
       {"max_cnt: 150", "max_cnt: [150", "euroc_stereo_imu_config.yaml:"},
+      {"max_cnt: 150", "max_cnt: 150\nimu_noise_scale: 0", "key 'imu_noise_scale': value 0, allowed 0.25..100"},
+      {"max_cnt: 150", "max_cnt: 150\nmax_landmarks_in_solve: 5", "key 'max_landmarks_in_solve': value 5, allowed 10.."},
+      {"max_cnt: 150", "max_cnt: 150\nbeta_2d: 0", "key 'beta_2d': value 0, allowed 0.01..100"},
+      {"max_cnt: 150", "max_cnt: 150\nmin_stereo_disparity: -1", "key 'min_stereo_disparity': value -1, allowed 0..100 px"},
   };
   for (const Case& c : cases) {
     CAPTURE(c.to);

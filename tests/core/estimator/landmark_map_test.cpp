@@ -34,7 +34,7 @@ struct Scene {
       o.bearing_right = (p0 - Eigen::Vector3d(0.11, 0, 0)).normalized().cast<float>();
       ff->features.push_back(o);
     }
-    return map->ingest(*ff, slot) == 0 ? slot : -1;
+    return map->ingest(*ff, slot, Eigen::Matrix3d::Identity()) == 0 ? slot : -1;
   }
 };
 
@@ -91,7 +91,7 @@ TEST_CASE("LandmarkMap: a full pool refuses new features and counts them; freed 
       o.bearing_left = Eigen::Vector3f::UnitZ();
       s.ff->features.push_back(o);
     }
-    dropped += map.ingest(*s.ff, slot);
+    dropped += map.ingest(*s.ff, slot, Eigen::Matrix3d::Identity());
   }
   CHECK(map.size() == cap);
   CHECK(dropped == 800 - cap);
@@ -109,6 +109,24 @@ TEST_CASE("LandmarkMap: a full pool refuses new features and counts them; freed 
   o.id = 5000;
   o.bearing_left = Eigen::Vector3f::UnitZ();
   s.ff->features.push_back(o);
-  CHECK(map.ingest(*s.ff, slot) == 0);
+  CHECK(map.ingest(*s.ff, slot, Eigen::Matrix3d::Identity()) == 0);
   CHECK(map.find(5000) >= 0);
+}
+
+TEST_CASE("LandmarkMap: a stereo match with too little disparity enters as a 2D-left feature", "[estimator][landmarks]") {
+  // 0.11 m baseline at 460 px focal: 4 m gives 12.6 px of disparity, 40 m gives 1.3 px.
+  ums::LandmarkMapOptions options;
+  options.min_stereo_parallax_rad = 3.0 / 460.0;  // 3 px
+  ums::LandmarkMap map{options};
+  Scene s;
+  const Eigen::Vector3d p[2] = {Eigen::Vector3d(0.3, 0.1, 4.0), Eigen::Vector3d(0.3, 0.1, 40.0)};
+  REQUIRE(s.add_frame(0.0, p, 2, true, &map) >= 0);
+  REQUIRE(map.size() == 2);
+  const ums::Landmark& near = map.at_pool(map.find(1));
+  const ums::Landmark& far = map.at_pool(map.find(2));
+  CHECK(near.group() == ums::LandmarkGroup::k3D);
+  CHECK(near.obs[0].has_right);
+  CHECK(far.group() == ums::LandmarkGroup::k2DLeft);
+  CHECK(far.obs[0].has_left);
+  CHECK_FALSE(far.obs[0].has_right);
 }
