@@ -20,11 +20,7 @@ bool EvalOptions::validate(std::string* error) const {
 
 EvalResult evaluate_frames(const Trajectory& estimate, const Trajectory& groundtruth,
                            const Eigen::Isometry3d& T_b_c0, const MetricsOptions& options) {
-  if (estimate.frame == groundtruth.frame) return evaluate(estimate, groundtruth, options);
-  if (estimate.frame == PoseFrame::kBody) {
-    return evaluate(change_frame(estimate, T_b_c0, PoseFrame::kCam0), groundtruth, options);
-  }
-  return evaluate(change_frame(estimate, T_b_c0.inverse(), PoseFrame::kBody), groundtruth, options);
+  return evaluate(to_frame(estimate, groundtruth.frame, T_b_c0), groundtruth, options);
 }
 
 void print_eval(const EvalResult& r, AlignMode align, std::ostream& out) {
