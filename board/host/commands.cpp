@@ -22,7 +22,9 @@ usage: umsvins <command> [options]
       Write a synthetic EuRoC-layout stereo+IMU dataset (scenarios: nominal, standstill-start,
       uniform-start, dark-start, textureless, impulses, right-dropout).
   eval --estimate F --groundtruth F [--align se3|sim3|posyaw] [--cam0-sensor-yaml F]
-      Print ATE and RPE of a trajectory against ground truth.
+       [--stats DIR/stats.json] [--json F]
+      Print ATE, RPE and the error budget (ATE per mode with --stats, scale, yaw and position
+      drift, worst 5 s) of a trajectory against ground truth; --json: the same as JSON.
   sweep <dataset> --runs N --start-range A:B --out DIR [--seed S] [--duration D] [--config F]
       Repeat replay from random start times (robustness table).
   live [--config F] [--source d455|replay:DIR] [--out DIR] [--seconds S]

@@ -6,6 +6,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -19,6 +21,7 @@
 #include "core/common/version.hpp"
 #include "hal/replay/euroc_reader.hpp"
 #include "profiling/alloc_counter.hpp"
+#include "profiling/eval/error_budget.hpp"
 #include "profiling/eval/eval_command.hpp"
 #include "profiling/eval/metrics.hpp"
 #include "profiling/eval/report_html.hpp"
@@ -47,11 +50,56 @@ long peak_rss_kib() {
   return -1;
 }
 
+// The estimator's own mode timeline (what eval --stats reads back from stats.json).
+eval::ModeTimeline mode_timeline_of(const EstimatorStats& e) {
+  eval::ModeTimeline t;
+  t.origin_known = true;
+  t.origin_t_ns = e.first_frame_t_ns;
+  if (!e.mode_changes.empty()) t.initial_mode = to_string(e.mode_changes[0].from);
+  for (const ModeChange& c : e.mode_changes) t.changes.push_back({c.t_ns - e.first_frame_t_ns, to_string(c.to)});
+  return t;
+}
+
+std::string fixed(double v, int decimals, const char* unit) {
+  if (!std::isfinite(v)) return "n/a";
+  char b[64];
+  std::snprintf(b, sizeof b, "%.*f %s", decimals, v, unit);
+  return b;
+}
+
+// The budget as the report draws it (times already on the first-frame clock of the mode bars).
+eval::ReportBudget report_budget(const eval::ErrorBudget& b) {
+  eval::ReportBudget r;
+  r.present = true;
+  r.t_s = b.t_s;
+  r.error_m = b.error_m;
+  for (const eval::PhaseError& p : b.phases) {
+    r.phases.push_back({p.mode, p.poses, p.duration_s, p.ate_rmse_m, 100.0 * p.share_of_ate2});
+  }
+  r.figures = {{"ATE RMSE, whole flight (SE(3))", fixed(b.ate_rmse_m, 4, "m")},
+               {"scale error (Sim(3))", fixed(b.scale_error_pct, 3, "%")},
+               {"yaw error at the end (anchor: first " + fixed(b.anchor_s, 1, "s") + ")", fixed(b.yaw_error_end_deg, 3, "deg")},
+               {"yaw drift", fixed(b.yaw_drift_deg_per_min, 3, "deg/min")},
+               {"final position drift", fixed(b.final_drift_m, 4, "m") + " over " + fixed(b.distance_m, 2, "m") + " = " +
+                                            fixed(b.final_drift_pct, 3, "%")}};
+  r.has_worst = b.worst.found;
+  if (b.worst.found) {
+    r.worst_start_s = b.worst.start_s;
+    r.worst_end_s = b.worst.end_s;
+    r.worst_rmse_m = b.worst.rmse_m;
+    r.worst_mode = b.worst.mode;
+    r.figures.push_back({"worst " + fixed(b.window_s, 0, "s"), fixed(b.worst.start_s, 2, "s") + " to " +
+                                                                 fixed(b.worst.end_s, 2, "s") + ": " +
+                                                                 fixed(b.worst.rmse_m, 4, "m") + " in " + b.worst.mode});
+  }
+  return r;
+}
+
 // report.html: what the run has today (features and timing per frame, the ground truth's path
 // when the dataset has one; the estimate and its error once the estimator exists).
 void write_report(const std::string& dataset, const hal::EurocReader& reader, const ReplayPipeline& pipeline,
                   const ReplaySummary& summary, const eval::EvalResult* accuracy,
-                  const std::filesystem::path& path, std::ostream& err) {
+                  const eval::ErrorBudget* budget, const std::filesystem::path& path, std::ostream& err) {
   eval::ReportData data;
   data.title = "umsvins replay: " + dataset;
   data.summary = {{"dataset", dataset},
@@ -85,6 +133,7 @@ void write_report(const std::string& dataset, const hal::EurocReader& reader, co
   if (pipeline.has_estimator()) data.stage_timings.push_back({"backend", s.backend_ms});
   data.stage_timings.push_back({"total", s.total_ms});
   data.end_t_s = summary.duration_s;
+  if (budget != nullptr) data.budget = report_budget(*budget);
   if (reader.has_groundtruth()) {
     // Streamed row by row (the ground truth of a long flight is large); a plot needs no more than
     // one point per 50 ms.
@@ -195,13 +244,21 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
   }
   // Accuracy against the dataset's ground truth, when it has one.
   std::unique_ptr<eval::EvalResult> accuracy;
+  std::unique_ptr<eval::ErrorBudget> budget;
   if (pipeline.has_estimator() && reader.has_groundtruth() && pipeline.poses_written() >= 3) {
     try {
       const eval::Trajectory est = eval::read_trajectory(trajectory_path.string(), eval::TrajectoryFormat::kTum);
       const eval::Trajectory gt = eval::read_trajectory(reader.groundtruth_path());
+      const eval::Trajectory est_in_gt = eval::to_frame(est, gt.frame, config.rig.cam[0].T_b_c);
       eval::MetricsOptions mo;
-      accuracy = std::make_unique<eval::EvalResult>(
-          eval::evaluate_frames(est, gt, config.rig.cam[0].T_b_c, mo));
+      accuracy = std::make_unique<eval::EvalResult>(eval::evaluate(est_in_gt, gt, mo));
+      try {
+        const eval::ModeTimeline timeline = mode_timeline_of(pipeline.estimator()->stats());
+        budget = std::make_unique<eval::ErrorBudget>(
+            eval::compute_error_budget(est_in_gt, gt, &timeline, eval::BudgetOptions{}));
+      } catch (const std::exception& e) {
+        err << "warning: no error budget: " << e.what() << "\n";
+      }
     } catch (const std::exception& e) {
       err << "warning: no accuracy figures: " << e.what() << "\n";
     }
@@ -220,8 +277,13 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
         .value("matched_poses", static_cast<std::uint64_t>(accuracy->matched))
         .value("ate_rmse_m", accuracy->ate.translation_m.rmse, 6)
         .value("ate_max_m", accuracy->ate.translation_m.max, 6)
-        .value("rotation_rmse_deg", accuracy->ate.rotation_deg.rmse, 6)
-        .end_object();
+        .value("rotation_rmse_deg", accuracy->ate.rotation_deg.rmse, 6);
+    if (budget != nullptr) {
+      w.begin_object("budget");
+      eval::write_error_budget_json(*budget, w);
+      w.end_object();
+    }
+    w.end_object();
   }
   w.begin_object("input")
       .value("stereo_pairs", static_cast<std::uint64_t>(counters.stereo_pairs))
@@ -238,7 +300,7 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
     for (std::size_t i = 0; i < accuracy->ate.t_s.size(); ++i) csv << accuracy->ate.t_s[i] << "," << accuracy->ate.error_m[i] << "\n";
     write_file(out_dir / "ate_errors.csv", csv.str());
   }
-  write_report(dataset, reader, pipeline, summary, accuracy.get(), out_dir / "report.html", err);
+  write_report(dataset, reader, pipeline, summary, accuracy.get(), budget.get(), out_dir / "report.html", err);
 
   out << "replay: " << summary.frames << " stereo pairs, " << summary.imu_samples
       << " IMU samples, " << summary.duration_s << " s of data in " << wall_s << " s ("

@@ -270,10 +270,14 @@ void ReplayPipeline::write_estimator_stats(JsonWriter& w) const {
       .value("time_s", e.initialized ? (static_cast<double>(e.init_t_ns) - t0_ns) * 1e-9 : -1.0, 4)
       .value("case", e.initialized ? e.init_case : "none")
       .end_object();
+  // The origin of every t_s below, on the dataset clock of trajectory.tum (eval --stats places the
+  // poses in the timeline with it; t_s alone keeps 4 significant digits).
+  w.value("first_frame_t_ns", static_cast<std::int64_t>(e.first_frame_t_ns));
   w.begin_array("modes");
   for (const ModeChange& c : e.mode_changes) {
     w.begin_object()
         .value("t_s", (static_cast<double>(c.t_ns) - t0_ns) * 1e-9, 4)
+        .value("t_ns", static_cast<std::int64_t>(c.t_ns))
         .value("from", to_string(c.from))
         .value("to", to_string(c.to))
         .value("reason", c.reason)

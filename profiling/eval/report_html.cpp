@@ -69,9 +69,33 @@ int decimals_for(double step) {
   return std::max(0, std::min(6, static_cast<int>(-std::floor(std::log10(step) + 1e-9))));
 }
 
+// A shaded span of x behind the series (a mode phase, the worst window).
+struct Band {
+  double x0 = 0.0, x1 = 0.0;
+  std::string fill;
+  double opacity = 0.15;
+  std::string label;       // written at the top of the band when it is wide enough
+  bool outline = false;    // dashed outline in the fill colour (marks rather than shades)
+};
+
+std::string band_svg(const Band& b, double left_px, double right_px, double top_px, double height_px) {
+  std::ostringstream o;
+  o << "<rect x='" << num(left_px, 1) << "' y='" << num(top_px, 1) << "' width='" << num(right_px - left_px, 1)
+    << "' height='" << num(height_px, 1) << "' fill='" << b.fill << "' fill-opacity='" << num(b.opacity, 2) << "'";
+  if (b.outline) o << " stroke='" << b.fill << "' stroke-width='1.5' stroke-dasharray='5,3'";
+  o << "><title>" << esc(b.label) << "</title></rect>";
+  if (!b.label.empty() && right_px - left_px > 7.0 * static_cast<double>(b.label.size())) {
+    // Mode names at the top, the marked window's label at the bottom (errors peak upwards).
+    o << "<text x='" << num(left_px + 3, 1) << "' y='" << num(b.outline ? top_px + height_px - 5 : top_px + 11, 1)
+      << "' font-size='10' fill='" << (b.outline ? b.fill : "#555") << "'>" << esc(b.label) << "</text>";
+  }
+  return o.str();
+}
+
 // An SVG line chart with axes, ticks, labels and a legend. equal_aspect keeps metres square.
 std::string line_chart(const std::string& title, const std::string& xlabel, const std::string& ylabel,
-                       const std::vector<Series>& series, bool equal_aspect, int w = 560, int h = 360) {
+                       const std::vector<Series>& series, bool equal_aspect, int w = 560, int h = 360,
+                       const std::vector<Band>& bands = {}) {
   const double ml = 62, mr = 14, mt = 28, mb = 44;
   const double pw = w - ml - mr, ph = h - mt - mb;
   Range rx, ry;
@@ -101,6 +125,10 @@ std::string line_chart(const std::string& title, const std::string& xlabel, cons
     << "</text>";
   o << "<rect x='" << ml << "' y='" << mt << "' width='" << pw << "' height='" << ph
     << "' fill='#fafafa' stroke='#888'/>";
+  for (const Band& b : bands) {
+    const double left = X(std::max(b.x0, rx.lo)), right = X(std::min(b.x1, rx.hi));
+    if (right > left) o << band_svg(b, left, right, mt, ph);
+  }
   const double stx = tick_step(rx.hi - rx.lo, 6), sty = tick_step(ry.hi - ry.lo, 5);
   for (double v = std::ceil(rx.lo / stx) * stx; v <= rx.hi + 1e-12; v += stx) {
     o << "<line x1='" << num(X(v), 1) << "' y1='" << mt << "' x2='" << num(X(v), 1) << "' y2='" << mt + ph
@@ -222,6 +250,40 @@ std::string mode_timeline(const std::vector<ReportModeChange>& modes, double end
   return o.str();
 }
 
+// Position error over time, each mode phase shaded in its timeline colour, the worst window
+// outlined in red.
+std::string budget_chart(const ReportBudget& b, const std::vector<ReportModeChange>& modes, double end_t_s) {
+  std::vector<Band> bands;
+  for (std::size_t i = 0; i < modes.size(); ++i) {
+    const double t1 = i + 1 < modes.size() ? modes[i + 1].t_s : std::max(end_t_s, b.t_s.empty() ? 0.0 : b.t_s.back());
+    bands.push_back({modes[i].t_s, t1, mode_color(modes[i].mode), 0.15, modes[i].mode, false});
+  }
+  if (b.has_worst) {
+    bands.push_back({b.worst_start_s, b.worst_end_s, kColorEst, 0.12,
+                     "worst " + num(b.worst_end_s - b.worst_start_s, 0) + " s: " + num(b.worst_rmse_m, 4) + " m", true});
+  }
+  std::vector<Series> s;
+  s.push_back({b.t_s, b.error_m, kColorEst, "|p_gt - align(p_est)|", false});
+  return line_chart("Error budget: position error by mode", "t [s] since the first frame", "error [m]", s, false,
+                    740, 360, bands);
+}
+
+std::string budget_table(const ReportBudget& b) {
+  std::ostringstream o;
+  o << "<table><tr><td><b>mode</b></td><td><b>poses</b></td><td><b>time [s]</b></td>"
+       "<td><b>ATE RMSE [m]</b></td><td><b>share of ATE&sup2; [%]</b></td></tr>";
+  for (const ReportBudgetPhase& p : b.phases) {
+    o << "<tr><td>" << esc(p.mode) << "</td><td>" << p.poses << "</td><td>" << num(p.duration_s, 2) << "</td><td>"
+      << (std::isfinite(p.ate_rmse_m) ? num(p.ate_rmse_m, 4) : std::string("-")) << "</td><td>"
+      << num(p.share_pct, 1) << "</td></tr>";
+  }
+  if (b.phases.empty()) o << "<tr><td colspan='5'>no per-mode split (no mode timeline)</td></tr>";
+  o << "</table><table style='margin-top:8px'>";
+  for (const auto& kv : b.figures) o << "<tr><td>" << esc(kv.first) << "</td><td>" << esc(kv.second) << "</td></tr>";
+  o << "</table>";
+  return o.str();
+}
+
 std::vector<double> component(const ReportPositions& p, int axis) {
   std::vector<double> v;
   v.reserve(p.p_w_m.size());
@@ -266,7 +328,12 @@ std::string render_report_html(const ReportData& d) {
     if (!d.estimate.p_w_m.empty()) s.push_back({d.estimate.t_s, component(d.estimate, a), kColorEst, "estimate", false});
     o << line_chart(std::string(axes[a]) + " over time", "t [s]", std::string(axes[a]) + " [m]", s, false, 370, 260);
   }
-  o << "</div>\n<h2>Timing per stage</h2><div class='row'>";
+  o << "</div>\n";
+  if (d.budget.present) {
+    o << "<h2>Error budget</h2><div class='row'>" << budget_chart(d.budget, d.modes, d.end_t_s) << "<div>"
+      << budget_table(d.budget) << "</div></div>\n";
+  }
+  o << "<h2>Timing per stage</h2><div class='row'>";
   for (std::size_t i = 0; i < d.stage_timings.size(); ++i) o << histogram(d.stage_timings[i], kPalette[i % 8]);
   if (d.stage_timings.empty()) o << "<p>no timing recorded</p>";
   o << "</div>\n<h2>Features per frame</h2><div class='row'>";

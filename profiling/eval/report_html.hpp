@@ -1,8 +1,9 @@
 #pragma once
 // One self-contained report.html (inline SVG and CSS, no script, no network) of a replay run:
-// top view and x/y/z over time of estimate vs ground truth, position error over time, per-stage
-// timing histograms, features per frame by class, mode timeline. The caller (replay) fills the
-// plain series below; nothing here knows the estimator. Tool code: allocates freely.
+// top view and x/y/z over time of estimate vs ground truth, position error over time, the error
+// budget, per-stage timing histograms, features per frame by class, mode timeline. The caller
+// (replay) fills the plain series below; nothing here knows the estimator. Tool code: allocates
+// freely.
 
 #include <string>
 #include <utility>
@@ -34,6 +35,28 @@ struct ReportModeChange {
   std::string mode;                   // "IMU_ONLY", "VO", "VIO", "INIT", ...
 };
 
+struct ReportBudgetPhase {
+  std::string mode;                   // "IMU_ONLY", "VO", "VIO", ...
+  std::size_t poses = 0;
+  double duration_s = 0.0;            // s
+  double ate_rmse_m = 0.0;            // m (NaN: no pose in this mode)
+  double share_pct = 0.0;             // % of ATE^2
+};
+
+// The error budget (profiling/eval/error_budget.hpp) as the report shows it: the error over time
+// with the mode phases (ReportData::modes) shaded and the worst window marked, and a table.
+struct ReportBudget {
+  bool present = false;
+  std::vector<double> t_s;            // s, on the clock of ReportData::modes (the run's first frame)
+  std::vector<double> error_m;        // m, per matched pose under the global SE(3)
+  std::vector<ReportBudgetPhase> phases;  // empty: no per-mode split
+  std::vector<std::pair<std::string, std::string>> figures;  // label, value with its unit
+  bool has_worst = false;
+  double worst_start_s = 0.0, worst_end_s = 0.0;  // s
+  double worst_rmse_m = 0.0;          // m
+  std::string worst_mode;
+};
+
 struct ReportData {
   std::string title = "UMS-VINS run";
   std::vector<std::pair<std::string, std::string>> summary;  // key/value table at the top
@@ -45,6 +68,7 @@ struct ReportData {
   ReportFeatureCounts features;
   std::vector<ReportModeChange> modes;  // sorted by t_s
   double end_t_s = 0.0;               // s, end of the run (closes the last mode span)
+  ReportBudget budget;                // section shown only when present
 };
 
 // The whole document as a string.

@@ -201,6 +201,12 @@ Trajectory change_frame(const Trajectory& in, const Eigen::Isometry3d& T_x_y, Po
   return out;
 }
 
+Trajectory to_frame(const Trajectory& in, PoseFrame frame, const Eigen::Isometry3d& T_b_c0) {
+  if (in.frame == frame) return in;
+  return frame == PoseFrame::kCam0 ? change_frame(in, T_b_c0, PoseFrame::kCam0)
+                                   : change_frame(in, T_b_c0.inverse(), PoseFrame::kBody);
+}
+
 Eigen::Isometry3d euroc_T_b_c0() {
   Eigen::Matrix4d m;
   m << 0.0148655429818, -0.999880929698, 0.00414029679422, -0.0216401454975,

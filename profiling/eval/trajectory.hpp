@@ -44,6 +44,10 @@ void write_tum(const std::string& path, const Trajectory& trajectory);
 // Returns the trajectory of frame y rigidly attached to x: T_w_y = T_w_x * T_x_y.
 Trajectory change_frame(const Trajectory& in, const Eigen::Isometry3d& T_x_y, PoseFrame out_frame);
 
+// The trajectory placing `frame` instead: unchanged when it already does, else moved with the cam0
+// extrinsic T_b_c0 (cam0 -> body) or its inverse.
+Trajectory to_frame(const Trajectory& in, PoseFrame frame, const Eigen::Isometry3d& T_b_c0);
+
 // EuRoC cam0 extrinsic of the VI-Sensor (sensor.yaml T_BS of cam0): T_b_c0, cam0 -> body.
 Eigen::Isometry3d euroc_T_b_c0();
 

@@ -10,6 +10,7 @@
 
 #include <catch2/catch.hpp>
 
+#include "board/host/sweep.hpp"  // flatten_json
 #include "tests/common/test_paths.hpp"
 
 namespace ums::cli {
@@ -184,6 +185,31 @@ TEST_CASE("umsvins simulate writes a dataset that replay reads, eval scores an e
   REQUIRE(at != std::string::npos);
   const double rmse_m = std::stod(eval.out.substr(at + 20));
   CHECK(rmse_m == Approx(0.010).margin(0.001));
+
+  // The error budget with the replay's mode timeline, as text and as JSON.
+  const Run budget = run({"eval", "--estimate", dir + "/est.tum", "--groundtruth", gt, "--stats",
+                          dir + "/out/stats.json", "--json", dir + "/eval.json"});
+  INFO(budget.err);
+  REQUIRE(budget.code == kExitOk);
+  CHECK(budget.out.find("error budget (global SE(3) over") != std::string::npos);
+  CHECK(budget.out.find("times in s since the first frame") != std::string::npos);
+  const auto json = flatten_json(read_all(dir + "/eval.json"));
+  CHECK(json.at("budget.has_phases") == "true");
+  CHECK(std::stod(json.at("budget.ate_rmse_m")) == Approx(rmse_m).margin(1e-4));
+  CHECK(std::stol(json.at("budget.phases.IMU_ONLY.poses")) + std::stol(json.at("budget.phases.VO.poses")) +
+            std::stol(json.at("budget.phases.VIO.poses")) ==
+        std::stol(json.at("matched_poses")));
+  for (const char* key : {"budget.scale_error_pct", "budget.yaw_drift_deg_per_min", "budget.final_drift_pct",
+                          "budget.worst_window.found", "ate.trans_m.rmse", "rpe.0.trans_m.rmse"}) {
+    INFO(key);
+    CHECK(json.count(key) == 1);
+  }
+  const Run no_stats = run({"eval", "--estimate", dir + "/est.tum", "--groundtruth", gt, "--stats", dir + "/none.json"});
+  CHECK(no_stats.code == kExitUsage);
+  CHECK(no_stats.err.find("none.json: cannot open") != std::string::npos);
+  const Run bad_stats = run({"eval", "--estimate", dir + "/est.tum", "--groundtruth", gt, "--stats", dir + "/est.tum"});
+  CHECK(bad_stats.code == kExitUsage);
+  CHECK(bad_stats.err.find("--stats") != std::string::npos);
 
   CHECK(run({"eval", "--estimate", dir + "/est.tum", "--groundtruth", gt, "--align", "affine"}).code ==
         kExitUsage);

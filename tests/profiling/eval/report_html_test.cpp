@@ -83,6 +83,48 @@ TEST_CASE("report.html is one self-contained document with every section", "[eva
   CHECK(html.find("nan") == std::string::npos);
 }
 
+// The error budget section: the error plot with the mode phases shaded (one band per mode span, in
+// the mode timeline's colours) and the worst window outlined, and the table of per-mode figures.
+TEST_CASE("report.html shows the error budget plot and table when given one", "[eval][report][budget]") {
+  ReportData d = example_report();
+  CHECK(render_report_html(d).find("Error budget") == std::string::npos);  // absent: no section
+
+  d.budget.present = true;
+  d.budget.t_s = d.error_t_s;
+  d.budget.error_m = d.error_m;
+  d.budget.phases = {{"IMU_ONLY", 0, 0.0, std::nan(""), 0.0}, {"VO", 30, 1.5, 0.0321, 57.0}, {"VIO", 370, 17.0, 0.0123, 43.0}};
+  d.budget.figures = {{"scale error (Sim(3))", "-0.668 %"}, {"yaw drift", "+0.569 deg/min"}};
+  d.budget.has_worst = true;
+  d.budget.worst_start_s = 11.25;
+  d.budget.worst_end_s = 16.25;
+  d.budget.worst_rmse_m = 0.0456;
+  d.budget.worst_mode = "VIO";
+  const std::string html = render_report_html(d);
+  const std::size_t at = html.find("<h2>Error budget</h2>");
+  REQUIRE(at != std::string::npos);
+  const std::string section = html.substr(at, html.find("<h2>", at + 1) - at);
+  CHECK(section.find("Error budget: position error by mode") != std::string::npos);
+  // Three shaded mode bands (IMU_ONLY 0-1.5 s, VO 1.5-3 s, VIO 3-20 s) and the outlined worst window.
+  std::size_t bands = 0;
+  for (std::size_t p = section.find("fill-opacity='0.15'"); p != std::string::npos;
+       p = section.find("fill-opacity='0.15'", p + 1)) {
+    ++bands;
+  }
+  CHECK(bands == 3);
+  CHECK(section.find("fill='#2ca02c' fill-opacity='0.15'") != std::string::npos);  // VIO's timeline colour
+  CHECK(section.find("stroke-dasharray") != std::string::npos);
+  CHECK(section.find("worst 5 s: 0.0456 m") != std::string::npos);
+  // Table: one row per mode with its numbers, "-" where a mode has no pose, then the figures.
+  CHECK(section.find("share of ATE&sup2; [%]") != std::string::npos);
+  CHECK(section.find("<tr><td>VO</td><td>30</td><td>1.50</td><td>0.0321</td><td>57.0</td></tr>") != std::string::npos);
+  CHECK(section.find("<tr><td>IMU_ONLY</td><td>0</td><td>0.00</td><td>-</td><td>0.0</td></tr>") != std::string::npos);
+  CHECK(section.find("<td>yaw drift</td><td>+0.569 deg/min</td>") != std::string::npos);
+  CHECK(html.find("nan") == std::string::npos);
+
+  d.budget.phases.clear();
+  CHECK(render_report_html(d).find("no per-mode split") != std::string::npos);
+}
+
 TEST_CASE("report.html renders non-blank in headless chromium", "[eval][report][chromium]") {
 #if defined(__aarch64__) || defined(__arm__)
   WARN("SKIPPED: chromium screenshot test runs on the x86-64 host only (not under qemu)");

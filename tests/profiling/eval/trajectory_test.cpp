@@ -69,3 +69,23 @@ TEST_CASE("EuRoC csv (17 columns) reads as body and T_BS parses from sensor.yaml
   CHECK((T.matrix() - euroc_T_b_c0().matrix()).norm() < 1e-9);
   CHECK_THROWS_WITH(read_trajectory(dir + "/missing.csv"), Catch::Contains("missing.csv"));
 }
+
+TEST_CASE("to_frame moves body <-> cam0 only when the frames differ", "[eval][trajectory]") {
+  Trajectory body;
+  StampedPose p;
+  p.t_ns = 5;
+  p.p_w_x = {1.0, 2.0, 3.0};
+  p.q_w_x = Eigen::Quaterniond(Eigen::AngleAxisd(0.4, Eigen::Vector3d(0, 1, 1).normalized()));
+  body.poses.push_back(p);
+  const Eigen::Isometry3d T_b_c0 = euroc_T_b_c0();
+  const Trajectory same = to_frame(body, PoseFrame::kBody, T_b_c0);
+  CHECK(same.poses[0].p_w_x == body.poses[0].p_w_x);
+  const Trajectory cam = to_frame(body, PoseFrame::kCam0, T_b_c0);
+  REQUIRE(cam.frame == PoseFrame::kCam0);
+  // T_w_c0 = T_w_b T_b_c0: the camera sits at p + R t_b_c0.
+  CHECK((cam.poses[0].p_w_x - (p.p_w_x + p.q_w_x * T_b_c0.translation())).norm() < 1e-12);
+  const Trajectory back = to_frame(cam, PoseFrame::kBody, T_b_c0);
+  CHECK(back.frame == PoseFrame::kBody);
+  CHECK((back.poses[0].p_w_x - p.p_w_x).norm() < 1e-12);
+  CHECK(back.poses[0].q_w_x.angularDistance(p.q_w_x) < 1e-12);
+}
