@@ -122,8 +122,22 @@ TEST_CASE("estimator scenario uniform-start (V101): VO while the IMU cannot see 
   CHECK(m.back() == "VIO");
   CHECK(f.number("estimator.frames_vo") >= 60);           // most of the 6 s of uniform motion
   CHECK(f.number("estimator.still_rejected_by_vision") > 0);  // the IMU alone took it for rest
+  CHECK(f.number("estimator.align_unobservable") > 0);      // alignment tried and refused: no excitation
+  CHECK(f.number("init.time_s") >= 5.5);                     // VIO only once the motion changes (6 s)
   CHECK(f.number("accuracy.ate_rmse_m") >= 0.0);
   CHECK(f.number("accuracy.ate_rmse_m") <= 0.10);
+}
+
+TEST_CASE("estimator scenario nominal (MH01, 6 s): a moving start reaches VIO by the alignment within 2 s", "[estimator][scenario]") {
+  if (skip_under_emulation()) return;
+  const Flight f = fly("MH01", "nominal", 6);  // moves from the first frame (the hall's hop)
+  INFO(f.out);
+  REQUIRE(f.code == 0);
+  CHECK(f.text("init.case") == "visual-imu alignment");
+  CHECK(f.number("init.time_s") >= 0.0);
+  CHECK(f.number("init.time_s") <= 2.0);
+  CHECK(f.number("accuracy.ate_rmse_m") >= 0.0);
+  CHECK(f.number("accuracy.ate_rmse_m") <= 0.03);
 }
 
 TEST_CASE("estimator scenario impulses (V101): saturated samples counted, ATE <= 7.5 cm", "[estimator][scenario]") {
