@@ -62,6 +62,8 @@ const NumericKey kNumericKeys[] = {
      [](AppConfig& c, double v) { c.rig.imu.gyro_random_walk = v; }},
     {"imu_noise_scale", "imu_noise_scale", 0.25, 100, false, "", " (times the calibrated densities)",
      [](const AppConfig& c) { return c.imu_noise_scale; }, [](AppConfig& c, double v) { c.imu_noise_scale = v; }},
+    {"imu_walk_scale", "imu_walk_scale", 0.25, 100, false, "", " (times the calibrated random walks)",
+     [](const AppConfig& c) { return c.imu_walk_scale; }, [](AppConfig& c, double v) { c.imu_walk_scale = v; }},
     {"max_landmarks_in_solve", "max_landmarks_in_solve", 10, static_cast<double>(capacity::kMaxLandmarks), true,
      "landmarks", " (capacity::kMaxLandmarks)", [](const AppConfig& c) { return double(c.max_landmarks_in_solve); },
      [](AppConfig& c, double v) { c.max_landmarks_in_solve = static_cast<int>(v); }},

@@ -32,7 +32,8 @@ struct AppConfig {
   bool estimate_extrinsic = false;      // refine T_b_c around the given values (VINS estimate_extrinsic 1)
   bool estimate_td = false;             // estimate the camera-IMU time offset (VINS estimate_td)
   // Back-end weights (ours; docs/results.md "Weights" has the measurements behind the defaults)
-  double imu_noise_scale = 2.0;         // 1, multiplies the calibrated IMU noise densities
+  double imu_noise_scale = 2.0;         // 1, multiplies the calibrated IMU white-noise densities
+  double imu_walk_scale = 6.0;          // 1, multiplies the calibrated IMU bias random walks
   int max_landmarks_in_solve = 100;     // landmarks per window solve, best first (paper: 100-300)
   double beta_3d = 1.0;                 // 1, paper eq. (5) beta1: weight of 3D landmarks' residuals
   double beta_2d = 1.0;                 // 1, paper eq. (5) beta2: weight of 2D landmarks' residuals

@@ -30,6 +30,7 @@ EstimatorOptions estimator_options_from(const AppConfig& config, const ReplayPip
   o.round2_time_s = pipeline.deterministic ? std::numeric_limits<double>::infinity() : config.max_solver_time_s;
   o.preintegration.noise = ImuNoise::from_calibration(config.rig.imu);
   o.imu_noise_inflation = config.imu_noise_scale;
+  o.imu_walk_inflation = config.imu_walk_scale;
   o.max_landmarks_in_solve = config.max_landmarks_in_solve;
   o.beta_3d = config.beta_3d;
   o.beta_2d = config.beta_2d;

@@ -27,8 +27,8 @@ EstimatorOptions prepared(const EstimatorOptions& in, const RigCalibration& rig)
   o.preintegration.noise = ImuNoise::from_calibration(rig.imu);
   o.preintegration.noise.gyro_noise_density *= o.imu_noise_inflation;
   o.preintegration.noise.accel_noise_density *= o.imu_noise_inflation;
-  o.preintegration.noise.gyro_random_walk *= o.imu_noise_inflation;
-  o.preintegration.noise.accel_random_walk *= o.imu_noise_inflation;
+  o.preintegration.noise.gyro_random_walk *= o.imu_walk_inflation;
+  o.preintegration.noise.accel_random_walk *= o.imu_walk_inflation;
   o.preintegration.validate();
   return o;
 }

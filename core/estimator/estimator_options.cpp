@@ -38,6 +38,7 @@ void EstimatorOptions::validate() const {
   require(standstill_window_s >= standstill.min_window_s, "standstill_window_s", standstill_window_s);
   require(still_sigma_m > 0.0 && still_sigma_rad > 0.0 && still_sigma_v > 0.0, "still_sigma_m", still_sigma_m);
   require(imu_noise_inflation > 0.0, "imu_noise_inflation", imu_noise_inflation);
+  require(imu_walk_inflation > 0.0, "imu_walk_inflation", imu_walk_inflation);
   require(min_stereo_disparity_px >= 0.0, "min_stereo_disparity_px", min_stereo_disparity_px);
   preintegration.validate();
   keyframe.validate();

@@ -20,8 +20,11 @@ struct EstimatorOptions {
   double gravity_m_s2 = 9.81;        // m/s^2
   bool estimate_extrinsic = false;   // optimize T_b_c0 / T_b_c1 in the window
   PreintegrationOptions preintegration;  // noise: set from the rig calibration by the caller
-  double imu_noise_inflation = 2.0;   // 1, multiplies the calibrated noise densities: unmodelled
-                                      // vibration and timing (VINS-Fusion inflates EuRoC ~10x)
+  double imu_noise_inflation = 2.0;   // 1, multiplies the calibrated white-noise densities:
+                                      // unmodelled vibration and timing (VINS-Fusion: EuRoC ~10x)
+  double imu_walk_inflation = 6.0;    // 1, multiplies the calibrated bias random walks: the
+                                      // biases between keyframes seconds apart must be free to
+                                      // move (docs/results.md "Weights" has the measurement)
   KeyframeOptions keyframe;
 
   // --- window and features ---

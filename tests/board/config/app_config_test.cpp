@@ -201,11 +201,12 @@ TEST_CASE("the back end's weights are keys of their own", "[config]") {
   const std::string dir = ums::test::make_temp_dir("config_weights");
   const std::string path = write_vins_config(
       dir, std::string(kVinsConfig) +
-               "imu_noise_scale: 3.5\nmax_landmarks_in_solve: 200\nbeta_3d: 1.5\nbeta_2d: 0.5\nmin_stereo_disparity: 2\n");
+               "imu_noise_scale: 3.5\nimu_walk_scale: 8\nmax_landmarks_in_solve: 200\nbeta_3d: 1.5\nbeta_2d: 0.5\nmin_stereo_disparity: 2\n");
   std::vector<std::string> warnings;
   const ums::AppConfig c = ums::load_config(path, micro_calibration(), &warnings);
   CHECK(warnings.empty());
   CHECK(c.imu_noise_scale == 3.5);
+  CHECK(c.imu_walk_scale == 8.0);
   CHECK(c.max_landmarks_in_solve == 200);
   CHECK(c.beta_3d == 1.5);
   CHECK(c.beta_2d == 0.5);
