@@ -39,6 +39,19 @@ std::string slurp(const std::string& path) {
   return out;
 }
 
+// FNV-1a 64 over bytes: a change of any byte changes the value.
+std::uint64_t fnv1a(const std::string& bytes, std::uint64_t h = 1469598103934665603ULL) {
+  for (unsigned char c : bytes) h = (h ^ c) * 1099511628211ULL;
+  return h;
+}
+
+std::string sorted_first_file(const std::string& dir) {
+  std::vector<std::string> names;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) names.push_back(e.path().string());
+  std::sort(names.begin(), names.end());
+  return names.empty() ? std::string() : names.front();
+}
+
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   return v[v.size() / 2];
@@ -208,4 +221,54 @@ TEST_CASE("same seed gives the same dataset and the right camera is blank during
   CHECK(*std::max_element(pix.begin(), pix.end()) == 0);
   REQUIRE(read_png(root + "/a/mav0/cam0/data/" + l[2], &pix, &w, &h, &err));
   CHECK(*std::max_element(pix.begin(), pix.end()) > 100);
+}
+
+// The procedural style is the estimator's reference: its output must not change when the
+// simulator grows. The hash covers the IMU, the ground truth, the scenario events (after the
+// header line) and the decoded pixels of the first pair (not the PNG bytes: those depend on the
+// zlib build). Values recorded with the simulator before the photo style existed (2026-12-02).
+// The exact hash is checked on x86-64 only (libm may round differently elsewhere); the sample
+// values below hold on every architecture.
+TEST_CASE("procedural style output is unchanged (hash and sample values)", "[sim][procedural]") {
+  const std::string root = ums::test::make_temp_dir("sim_procedural_hash");
+  SimOptions o;
+  o.trajectory_path = gt_file("MH01");
+  o.scenario = Scenario::kImpulses;
+  o.start_s = 10.0;
+  o.duration_s = 3.0;
+  o.seed = 5;
+  o.max_frames = 2;
+  o.out_dir = root;
+  std::string err;
+  REQUIRE(simulate(o, &err) == 0);
+  const std::string mav0 = root + "/mav0";
+  const std::string imu_csv = slurp(mav0 + "/imu0/data.csv");
+  const std::string gt_csv = slurp(mav0 + "/state_groundtruth_estimate0/data.csv");
+  std::string events = slurp(root + "/sim_events.csv");
+  events = events.substr(events.find('\n') + 1);
+  std::vector<std::uint8_t> left, right;
+  int w = 0, h = 0;
+  REQUIRE(read_png(sorted_first_file(mav0 + "/cam0/data"), &left, &w, &h, &err));
+  REQUIRE(read_png(sorted_first_file(mav0 + "/cam1/data"), &right, &w, &h, &err));
+  std::uint64_t hash = fnv1a(imu_csv);
+  hash = fnv1a(gt_csv, hash);
+  hash = fnv1a(events, hash);
+  hash = fnv1a(std::string(left.begin(), left.end()), hash);
+  hash = fnv1a(std::string(right.begin(), right.end()), hash);
+  INFO("procedural hash " << std::hex << hash);
+#if defined(__x86_64__)
+  CHECK(hash == 0xdd606b8c50899054ULL);
+#endif
+  CHECK(std::count(imu_csv.begin(), imu_csv.end(), '\n') == 602);
+  // First IMU row (t, gyro, accel) and the impulse times, as recorded.
+  double row[7] = {};
+  REQUIRE(std::sscanf(imu_csv.c_str() + imu_csv.find('\n') + 1, "%lf,%lf,%lf,%lf,%lf,%lf,%lf", &row[0], &row[1],
+                      &row[2], &row[3], &row[4], &row[5], &row[6]) == 7);
+  const double expected[7] = {1403636590863555584.0, -0.044715011591944846, -0.11816054994042104, 0.086598538319492227,
+                              7.5644064606267385, -0.32332706527454291, -6.2612393274702187};
+  for (int i = 0; i < 7; ++i) CHECK(row[i] == Approx(expected[i]).epsilon(1e-9));
+  CHECK(events.find("1403636591593555584,imu_impulse") != std::string::npos);
+  CHECK(events.find("1403636593863555584,imu_impulse") != std::string::npos);
+  CHECK(std::abs(int(left[100 * 752 + 100]) - 89) <= 1);
+  CHECK(std::abs(int(right[300 * 752 + 400]) - 78) <= 1);
 }
