@@ -299,25 +299,8 @@ ImuTrack generate_imu(const SimTrajectory& tr, const ImuCalibration& imu, const 
     bg += rg * nvec();
     ba += ra * nvec();
   }
-  if (o.scenario == Scenario::kImpulses && !track.samples.empty()) {
-    // One impulse per 10 s of flight (at least 3), at the highest yaw rates, >= 1 s apart.
-    const double dur_s = static_cast<double>(tr.t_end_ns - tr.t_begin_ns) * 1e-9;
-    const std::size_t want = static_cast<std::size_t>(std::max(3.0, std::floor(dur_s / 10.0)));
-    std::vector<std::size_t> order(yaw_rate.size());
-    for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
-    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return yaw_rate[a] > yaw_rate[b]; });
-    const std::size_t sep = static_cast<std::size_t>(o.imu_rate_hz);
-    std::uniform_real_distribution<double> ua(30.0, 80.0), ug(5.0, 10.0);
-    for (std::size_t idx : order) {
-      if (track.impulse_index.size() >= want) break;
-      bool far = true;
-      for (std::size_t j : track.impulse_index) far = far && (idx > j ? idx - j : j - idx) >= sep;
-      if (!far) continue;
-      track.impulse_index.push_back(idx);
-      track.samples[idx].accel_m_s2 += ua(rng) * nvec().normalized();
-      track.samples[idx].gyro_rad_s += ug(rng) * nvec().normalized();
-    }
-    std::sort(track.impulse_index.begin(), track.impulse_index.end());
+  if (o.scenario == Scenario::kImpulses) {
+    add_impulses(yaw_rate, o.imu_rate_hz, static_cast<double>(tr.t_end_ns - tr.t_begin_ns) * 1e-9, rng, n01, &track);
   }
   return track;
 }

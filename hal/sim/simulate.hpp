@@ -16,6 +16,7 @@
 #include "core/common/calibration.hpp"
 #include "core/common/imu_sample.hpp"
 #include "hal/replay/euroc_groundtruth.hpp"
+#include "hal/sim/imu_track.hpp"
 #include "hal/sim/renderer.hpp"
 #include "hal/sim/spline.hpp"
 
@@ -73,11 +74,6 @@ struct SimTrajectory {
 };
 SimTrajectory make_trajectory(const SimOptions& options, const RigCalibration& rig);
 
-struct ImuTrack {
-  std::vector<ImuSample> samples;                 // measured (noise, bias, impulses)
-  std::vector<hal::GroundTruthState> truth;       // at the same stamps, with the true biases
-  std::vector<std::size_t> impulse_index;         // samples carrying an impulse
-};
 ImuTrack generate_imu(const SimTrajectory& trajectory, const ImuCalibration& imu, const SimOptions& options);
 
 using ProgressCallback = std::function<void(int frames_done, int frames_total)>;
