@@ -65,7 +65,7 @@ TEST_CASE("decimated IMU: 1 s of gyro reproduces the trajectory's rotation", "[s
       const Eigen::Quaterniond truth = imu.truth[w0].q_w_b.conjugate() * imu.truth[w0 + 200].q_w_b;
       worst_deg = std::max(worst_deg, ums::so3::angle(truth.conjugate() * q) * 180.0 / M_PI);
     }
-    INFO(name << ": worst 1 s gyro integration error " << worst_deg << " deg");
+    WARN(name << ": worst 1 s gyro integration error " << worst_deg << " deg");
     CHECK(worst_deg < 0.05);
   }
 }
@@ -97,7 +97,7 @@ TEST_CASE("decimated IMU: accelerometer within the derived bound of the trajecto
     worst_ratio = std::max(worst_ratio, err / bound);
     worst_err = std::max(worst_err, err);
   }
-  INFO("worst |accel - f| " << worst_err << " m/s^2, worst error / bound " << worst_ratio);
+  WARN("V103: worst |accel - f| " << worst_err << " m/s^2, worst error / bound " << worst_ratio);
   CHECK(worst_ratio <= 1.0);
   CHECK(worst_err < 0.05);  // what the bound amounts to on V103's fastest 10 s
 }
@@ -120,7 +120,7 @@ TEST_CASE("decimated IMU: 1 s of accelerometer reproduces the velocity change", 
     }
     worst = std::max(worst, (dv - (imu.truth[w0 + 200].v_w_b - imu.truth[w0].v_w_b)).norm());
   }
-  INFO("worst 1 s velocity-change error " << worst << " m/s");
+  WARN("MH03: worst 1 s velocity-change error " << worst << " m/s");
   CHECK(worst < 2e-3);
 }
 
@@ -138,7 +138,7 @@ TEST_CASE("decimated IMU: initial biases as large as real ones, written to the g
     max_ba = max_ba.cwiseMax(ba.cwiseAbs());
     mean_abs_bg += bg.cwiseAbs().sum() / (3.0 * seeds);
   }
-  INFO("max |bg| " << max_bg.transpose() << ", max |ba| " << max_ba.transpose() << ", mean |bg| " << mean_abs_bg);
+  WARN("40 seeds: max |bg| " << max_bg.transpose() << ", max |ba| " << max_ba.transpose() << ", mean |bg| " << mean_abs_bg);
   CHECK(max_bg.maxCoeff() <= 0.08);
   CHECK(max_ba.maxCoeff() <= 0.1);
   CHECK(max_bg.minCoeff() > 0.06);   // the range is used (40 draws per axis)

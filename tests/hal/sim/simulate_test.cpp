@@ -414,7 +414,7 @@ TEST_CASE("photo style: frames and IMU from the same trajectory", "[sim][photo][
     pos_err.push_back((p - T_next.translation()).norm());
     rot_err.push_back(ums::so3::angle(Eigen::Quaterniond(T_next.linear()).conjugate() * q) * 180.0 / M_PI);
   }
-  INFO("median 1 s integration error " << median(pos_err) * 100 << " cm, " << median(rot_err) << " deg");
-  CHECK(median(pos_err) < 0.002);
-  CHECK(median(rot_err) < 0.02);
+  WARN("photo V102: median 1 s integration error " << median(pos_err) * 100 << " cm, " << median(rot_err) << " deg (noise off)");
+  CHECK(median(pos_err) < 5e-4);
+  CHECK(median(rot_err) < 0.005);
 }
