@@ -18,9 +18,13 @@ usage: umsvins <command> [options]
       (and DIR/trajectory.tum, DIR/report.html where those stages exist). Default DIR: out/replay.
       --deterministic: solver rounds bounded by iterations, not wall time (same result anywhere).
   simulate [--trajectory F] [--scenario NAME] [--seed N] [--start S] [--duration S]
-           [--camera euroc|d455] [--max-frames N] [--exposure-change] --out DIR
+           [--camera euroc|d455] [--max-frames N] [--exposure-change]
+           [--style procedural|photo] [--texture-dataset DIR] [--exposure-ms MS] --out DIR
       Write a synthetic EuRoC-layout stereo+IMU dataset (scenarios: nominal, standstill-start,
-      uniform-start, dark-start, textureless, impulses, right-dropout).
+      uniform-start, dark-start, textureless, impulses, right-dropout). --style photo: a second,
+      independent simulator (textures cut from the real images of the EuRoC dataset DIR, which it
+      requires; larger room, uneven light, vignetting, motion blur over --exposure-ms, default 4;
+      SE(3) trajectory, decimated IMU with real-sized biases). Default: procedural.
   eval --estimate F --groundtruth F [--align se3|sim3|posyaw] [--cam0-sensor-yaml F]
        [--stats DIR/stats.json] [--json F]
       Print ATE, RPE and the error budget (ATE per mode with --stats, scale, yaw and position

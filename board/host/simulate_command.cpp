@@ -9,7 +9,8 @@ namespace ums::cli {
 
 int run_simulate(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
   const Args args("simulate", argv, {"exposure-change", "quiet"},
-                  {"trajectory", "scenario", "seed", "out", "duration", "start", "camera", "max-frames"});
+                  {"trajectory", "scenario", "seed", "out", "duration", "start", "camera", "max-frames", "style",
+                   "texture-dataset", "exposure-ms"});
   args.require_positionals(0, "");
   sim::SimOptions options;
   options.out_dir = args.require("out");
@@ -31,16 +32,32 @@ int run_simulate(const std::vector<std::string>& argv, std::ostream& out, std::o
   options.start_s = args.get_double("start", 0.0);
   options.max_frames = static_cast<int>(args.get_long("max-frames", -1));
   options.exposure_change = args.has("exposure-change");
+  const std::string style = args.get_or("style", "procedural");
+  if (!sim::parse_style(style, &options.style)) {
+    throw UsageError("umsvins simulate: unknown --style '" + style + "' (procedural, photo)");
+  }
+  options.texture_dataset = args.get_or("texture-dataset", "");
+  options.exposure.exposure_ms = args.get_double("exposure-ms", options.exposure.exposure_ms);
+  if (options.style == sim::SimStyle::kPhoto && options.texture_dataset.empty()) {
+    // A failure (exit 1), not a usage slip: the photo style cannot run without real images.
+    err << "umsvins simulate: --style photo needs --texture-dataset DIR (an EuRoC dataset folder holding "
+           "mav0/cam0/data and mav0/cam1/data, e.g. ../shared/data/euroc/V1_01_easy_micro)\n";
+    return kExitFailure;
+  }
 
   std::string error;
   if (!options.validate(&error)) throw UsageError("umsvins simulate: " + error);
   Progress progress("simulate", 0);
   const bool quiet = args.has("quiet");
-  const int rc = sim::simulate(options, &error, [&](int done, int total) {
-    if (quiet) return;
-    static_cast<void>(total);
-    progress.update(static_cast<unsigned long>(done));
-  });
+  sim::SimStats stats;
+  const int rc = sim::simulate(
+      options, &error,
+      [&](int done, int total) {
+        if (quiet) return;
+        static_cast<void>(total);
+        progress.update(static_cast<unsigned long>(done));
+      },
+      &stats);
   if (!quiet) progress.finish();
   if (rc != 0) {
     err << "umsvins simulate: " << error << "\n";
@@ -48,6 +65,11 @@ int run_simulate(const std::vector<std::string>& argv, std::ostream& out, std::o
   }
   out << "simulate: " << sim::scenario_name(options.scenario) << " dataset written to " << options.out_dir
       << " (seed " << options.seed << ")\n";
+  if (options.style == sim::SimStyle::kPhoto && stats.frames > 0) {
+    out << "simulate: photo style, " << options.exposure.exposure_ms << " ms exposure, "
+        << static_cast<double>(stats.sub_exposures) / stats.frames << " sub-exposures per frame on average (max "
+        << stats.max_sub_exposures << ")\n";
+  }
   return kExitOk;
 }
 

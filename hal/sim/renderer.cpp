@@ -7,6 +7,9 @@
 #include <string>
 #include <thread>
 
+#include "hal/sim/camera_rays.hpp"
+#include "hal/sim/ray_cast.hpp"
+
 namespace ums::sim {
 namespace {
 
@@ -187,26 +190,9 @@ World make_world(const std::vector<Eigen::Vector3d>& path_w, const WorldOptions&
 
 StereoRenderer::StereoRenderer(const World& world, const RigCalibration& rig) : world_(world), rig_(rig) {
   for (int c = 0; c < 2; ++c) {
-    const CameraCalibration& cc = rig.cam[c];
-    if (cc.width <= 0 || cc.height <= 0 || !(cc.fx > 0.0) || !(cc.fy > 0.0)) {
-      throw std::runtime_error("StereoRenderer: camera " + std::to_string(c) + " calibration invalid");
-    }
-    const auto cam = CameraT<double>::from_calibration(cc);
-    bearing_[c].resize(static_cast<std::size_t>(cc.width) * cc.height);
-    footprint_[c].resize(bearing_[c].size());
-    for (int v = 0; v < cc.height; ++v) {
-      // One unproject per pixel plus one past the row end; the footprint is the angle to the
-      // right-hand neighbour's ray.
-      Eigen::Vector3d next;
-      if (!cam.unproject(Eigen::Vector2d(0.0, v), &next)) next = Eigen::Vector3d::UnitZ();
-      for (int u = 0; u < cc.width; ++u) {
-        const Eigen::Vector3d b = next;
-        if (!cam.unproject(Eigen::Vector2d(u + 1.0, v), &next)) next = b;
-        const std::size_t i = static_cast<std::size_t>(v) * cc.width + u;
-        bearing_[c][i] = b.cast<float>();
-        footprint_[c][i] = static_cast<float>(std::max(1e-5, (next - b).norm()));
-      }
-    }
+    CameraRays rays = make_camera_rays(rig.cam[c], c);
+    bearing_[c] = std::move(rays.bearing);
+    footprint_[c] = std::move(rays.footprint);
   }
 }
 
@@ -228,61 +214,15 @@ void StereoRenderer::render(int cam, const Eigen::Isometry3d& T_w_b, const Rende
       const std::size_t idx = static_cast<std::size_t>(v) * cc.width + u;
       const Eigen::Vector3f d = R * bearing_[cam][idx];
       const Eigen::Vector3f inv_d(1.0f / d.x(), 1.0f / d.y(), 1.0f / d.z());
-      // Room (from inside): the nearest exit plane (an infinite 1/d never wins the min).
-      float t_hit = 1e30f;
-      int axis = 0, positive = 0;
-      for (int a = 0; a < 3; ++a) {
-        const bool pos = d[a] > 0.0f;
-        const float t = ((pos ? w.room_hi[a] : w.room_lo[a]) - o[a]) * inv_d[a];
-        if (t < t_hit) {
-          t_hit = t;
-          axis = a;
-          positive = pos ? 1 : 0;
-        }
-      }
-      int material = w.face_material[static_cast<std::size_t>(2 * axis + positive)];
-      float shade = w.face_shade[static_cast<std::size_t>(2 * axis + positive)];
-      for (const Box& b : w.boxes) {
-        float tn = -1e30f, tf = 1e30f;
-        int na = 0, np = 0;
-        for (int a = 0; a < 3; ++a) {
-          float t0 = (b.lo[a] - o[a]) * inv_d[a], t1 = (b.hi[a] - o[a]) * inv_d[a];
-          // Moving in +a the ray enters through the low face (outward normal -a: index 2a).
-          int p = 0;
-          if (t0 > t1) {
-            std::swap(t0, t1);
-            p = 1;
-          }
-          if (t0 > tn) {
-            tn = t0;
-            na = a;
-            np = p;
-          }
-          tf = std::min(tf, t1);
-        }
-        if (tn <= tf && tn > 1e-4f && tn < t_hit) {
-          t_hit = tn;
-          axis = na;
-          positive = np;
-          material = b.material;
-          shade = w.face_shade[static_cast<std::size_t>(2 * na + np)];
-        }
-      }
-      const Eigen::Vector3f x = o + t_hit * d;
-      const int ua = (axis + 1) % 3, va = (axis + 2) % 3;
-      const Texture& tex = w.materials[static_cast<std::size_t>(material)];
+      SurfaceHit hit = hit_room(w, o, d, inv_d);
+      for (const Box& b : w.boxes) hit_box(w, b, o, inv_d, &hit);
+      const Eigen::Vector3f x = o + hit.t * d;
+      const int ua = (hit.axis + 1) % 3, va = (hit.axis + 2) % 3;
+      const Texture& tex = w.materials[static_cast<std::size_t>(hit.material)];
       // Footprint on the surface: range * pixel angle / cos(incidence), in texels -> mip level.
-      const float cosi = std::max(0.15f, std::abs(d[axis]));
-      const float texels = t_hit * footprint_[cam][idx] / cosi * tex.texels_per_m;
-      // Nearest mip level = round(log2(texels)), from the float exponent of texels * sqrt(2).
-      int level = 0;
-      if (texels > 1.0f) {
-        std::uint32_t bits;
-        const float scaled = texels * 1.41421356f;
-        std::memcpy(&bits, &scaled, sizeof bits);
-        level = static_cast<int>((bits >> 23) & 0xFFu) - 127;
-      }
-      float value = tex.sample(x[ua], x[va], level) * shade * gain;
+      const float cosi = std::max(0.15f, std::abs(d[hit.axis]));
+      const float texels = hit.t * footprint_[cam][idx] / cosi * tex.texels_per_m;
+      float value = tex.sample(x[ua], x[va], mip_level(texels)) * hit.shade * gain;
       if (sigma > 0.0f) {
         // Sum of 4 uniforms (Irwin-Hall), scaled to unit variance: Gaussian enough for sensor noise.
         const std::uint64_t r = splitmix(rng);

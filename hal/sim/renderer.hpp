@@ -24,6 +24,7 @@
 
 #include "core/camera/camera.hpp"
 #include "core/common/calibration.hpp"
+#include "hal/sim/lighting.hpp"
 
 namespace ums::sim {
 
@@ -65,6 +66,7 @@ struct World {
   std::array<float, 6> face_shade{};  // Lambert-like constant factor per face orientation
   std::vector<Box> boxes;
   std::vector<Texture> materials;
+  Lighting lighting;  // photo style only (photo_renderer.hpp); the procedural renderer ignores it
 };
 
 World make_world(const std::vector<Eigen::Vector3d>& path_w, const WorldOptions& options);

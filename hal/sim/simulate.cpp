@@ -10,7 +10,9 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "core/math/se3.hpp"
 #include "core/math/so3.hpp"
+#include "hal/sim/decimated_imu.hpp"
 #include "hal/replay/euroc_writer.hpp"
 
 namespace ums::sim {
@@ -142,6 +144,15 @@ const char* scenario_name(Scenario s) {
   return "?";
 }
 
+bool parse_style(const std::string& name, SimStyle* style) {
+  if (name == "procedural") *style = SimStyle::kProcedural;
+  else if (name == "photo") *style = SimStyle::kPhoto;
+  else return false;
+  return true;
+}
+
+const char* style_name(SimStyle style) { return style == SimStyle::kPhoto ? "photo" : "procedural"; }
+
 bool parse_camera_preset(const std::string& name, CameraPreset* preset) {
   if (name == "euroc") *preset = CameraPreset::kEuroc;
   else if (name == "d455") *preset = CameraPreset::kD455;
@@ -211,39 +222,72 @@ bool SimOptions::validate(std::string* error) const {
   if (!(gravity_m_s2 > 0.0)) return bad("simulate: gravity_m_s2 must be > 0");
   if (!(start_s >= 0.0)) return bad("simulate: start_s must be >= 0");
   if (!(initial_gyro_bias_sigma_rad_s >= 0.0 && initial_accel_bias_sigma_m_s2 >= 0.0)) return bad("simulate: bias sigmas must be >= 0");
+  if (style == SimStyle::kPhoto) {
+    if (texture_dataset.empty()) {
+      return bad("simulate: style photo needs texture_dataset (--texture-dataset DIR: an EuRoC dataset folder holding mav0/)");
+    }
+    if (!(imu_internal_rate_hz >= imu_rate_hz && imu_internal_rate_hz <= 20000.0)) {
+      return bad("simulate: imu_internal_rate_hz must be in [imu rate, 20000] Hz");
+    }
+    if (!(initial_gyro_bias_max_rad_s >= 0.0 && initial_accel_bias_max_m_s2 >= 0.0)) return bad("simulate: bias bounds must be >= 0");
+    if (!exposure.validate(error) || !photo_world.validate(error) || !lens.validate(error)) return false;
+  }
   return world.validate(error) && render.validate(error);
 }
 
-SimTrajectory make_trajectory(const SimOptions& o, const RigCalibration& rig) {
+Eigen::Isometry3d SimTrajectory::T_w_b(std::int64_t t_ns) const {
+  if (style == SimStyle::kPhoto) return se3.evaluate(t_ns);
+  const SplineState s = spline.evaluate(t_ns);
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = s.q_w_b.toRotationMatrix();
+  T.translation() = s.p_w_b;
+  return T;
+}
+
+namespace {
+
+// Uniform 20 Hz control poses of the cut, with the scenario prefix in front.
+struct ControlPoints {
+  std::vector<Eigen::Quaterniond> q;
+  std::vector<Eigen::Vector3d> p;
+  std::int64_t first_ns = 0;  // start of the cut (the flight)
+  int prefix = 0;             // control points before the flight
+};
+
+ControlPoints cut_control_points(const SimOptions& o, const RigCalibration& rig) {
   const Eigen::Isometry3d& T_b_c0 = rig.cam[0].T_b_c;
   const std::vector<Sample> raw =
       o.trajectory_path.empty() ? builtin_trajectory(T_b_c0) : read_groundtruth_body(o.trajectory_path, T_b_c0);
   const std::int64_t dt_ns = static_cast<std::int64_t>(kKnotDt * 1e9);
-  const std::int64_t first = raw.front().t_ns + static_cast<std::int64_t>(o.start_s * 1e9);
+  ControlPoints c;
+  c.first_ns = raw.front().t_ns + static_cast<std::int64_t>(o.start_s * 1e9);
   std::int64_t last = raw.back().t_ns;
-  if (o.duration_s > 0.0) last = std::min(last, first + static_cast<std::int64_t>(o.duration_s * 1e9));
-  if (last - first < 4 * dt_ns) throw std::runtime_error("simulate: the cut leaves less than 0.2 s of trajectory");
+  if (o.duration_s > 0.0) last = std::min(last, c.first_ns + static_cast<std::int64_t>(o.duration_s * 1e9));
+  if (last - c.first_ns < 4 * dt_ns) throw std::runtime_error("simulate: the cut leaves less than 0.2 s of trajectory");
   // Control points: uniform knots covering [first - dt, last + dt] (the spline is valid from the
   // second to the second-last knot).
-  std::vector<Eigen::Quaterniond> q;
-  std::vector<Eigen::Vector3d> p;
-  for (std::int64_t t = first - dt_ns; t <= last + dt_ns; t += dt_ns) {
+  for (std::int64_t t = c.first_ns - dt_ns; t <= last + dt_ns; t += dt_ns) {
     const Sample s = interpolate(raw, t);
     // Keep the quaternion hemisphere continuous (relative logs are taken anyway).
     Eigen::Quaterniond qs = s.q_w_b;
-    if (!q.empty() && q.back().dot(qs) < 0.0) qs.coeffs() *= -1.0;
-    q.push_back(qs);
-    p.push_back(s.p_w_b);
+    if (!c.q.empty() && c.q.back().dot(qs) < 0.0) qs.coeffs() *= -1.0;
+    c.q.push_back(qs);
+    c.p.push_back(s.p_w_b);
   }
-  int prefix = 0;
-  if (o.scenario == Scenario::kStandstillStart) {
-    prefix = static_cast<int>(std::lround(5.0 / kKnotDt));
-    q.insert(q.begin(), static_cast<std::size_t>(prefix), q.front());
-    p.insert(p.begin(), static_cast<std::size_t>(prefix), p.front());
-  } else if (o.scenario == Scenario::kUniformStart) {
+  return c;
+}
+
+void add_scenario_prefix(Scenario scenario, ControlPoints* c) {
+  auto& q = c->q;
+  auto& p = c->p;
+  if (scenario == Scenario::kStandstillStart) {
+    c->prefix = static_cast<int>(std::lround(5.0 / kKnotDt));
+    q.insert(q.begin(), static_cast<std::size_t>(c->prefix), q.front());
+    p.insert(p.begin(), static_cast<std::size_t>(c->prefix), p.front());
+  } else if (scenario == Scenario::kUniformStart) {
     // Constant velocity: the flight's initial velocity, at least 0.5 m/s (EuRoC flights start at
     // rest); horizontal direction of the first 2 s of travel when the start is at rest.
-    prefix = static_cast<int>(std::lround(6.0 / kKnotDt));
+    c->prefix = static_cast<int>(std::lround(6.0 / kKnotDt));
     Eigen::Vector3d v = (p[2] - p[0]) / (2.0 * kKnotDt);
     if (v.norm() < 0.5) {
       Eigen::Vector3d dir = p[std::min<std::size_t>(40, p.size() - 1)] - p[0];
@@ -251,22 +295,53 @@ SimTrajectory make_trajectory(const SimOptions& o, const RigCalibration& rig) {
       if (dir.norm() < 1e-3) dir = Eigen::Vector3d::UnitX();
       v = 0.5 * dir.normalized();
     }
-    std::vector<Eigen::Quaterniond> qp(static_cast<std::size_t>(prefix), q.front());
+    std::vector<Eigen::Quaterniond> qp(static_cast<std::size_t>(c->prefix), q.front());
     std::vector<Eigen::Vector3d> pp;
-    for (int k = prefix; k >= 1; --k) pp.push_back(p.front() - v * (k * kKnotDt));
+    for (int k = c->prefix; k >= 1; --k) pp.push_back(p.front() - v * (k * kKnotDt));
     q.insert(q.begin(), qp.begin(), qp.end());
     p.insert(p.begin(), pp.begin(), pp.end());
   }
+}
+
+}  // namespace
+
+SimTrajectory make_trajectory(const SimOptions& o, const RigCalibration& rig) {
+  ControlPoints c = cut_control_points(o, rig);
+  add_scenario_prefix(o.scenario, &c);
+  const std::int64_t dt_ns = static_cast<std::int64_t>(kKnotDt * 1e9);
   SimTrajectory tr;
-  const std::int64_t t0 = first - dt_ns - static_cast<std::int64_t>(prefix) * dt_ns;
-  tr.spline.init(t0, kKnotDt, std::move(q), std::move(p));
-  tr.t_begin_ns = tr.spline.start_ns();
-  tr.t_end_ns = tr.spline.end_ns();
-  tr.flight_begin_ns = first;
+  tr.style = o.style;
+  const std::int64_t t0 = c.first_ns - dt_ns - static_cast<std::int64_t>(c.prefix) * dt_ns;
+  tr.flight_begin_ns = c.first_ns;
+  if (o.style == SimStyle::kPhoto) {
+    std::vector<Eigen::Isometry3d> T(c.q.size());
+    for (std::size_t k = 0; k < c.q.size(); ++k) T[k] = se3::make(c.q[k], c.p[k]);
+    tr.se3.init(t0, kKnotDt, std::move(T));
+    // The IMU's integration window reaches beyond its first and last stamp.
+    const std::int64_t margin = decimated_imu_margin_ns(o.imu_rate_hz);
+    tr.t_begin_ns = tr.se3.start_ns() + margin;
+    tr.t_end_ns = tr.se3.end_ns() - margin;
+    tr.flight_begin_ns = std::max(tr.flight_begin_ns, tr.t_begin_ns);
+  } else {
+    tr.spline.init(t0, kKnotDt, std::move(c.q), std::move(c.p));
+    tr.t_begin_ns = tr.spline.start_ns();
+    tr.t_end_ns = tr.spline.end_ns();
+  }
   return tr;
 }
 
 ImuTrack generate_imu(const SimTrajectory& tr, const ImuCalibration& imu, const SimOptions& o) {
+  if (tr.style == SimStyle::kPhoto) {
+    DecimatedImuOptions d;
+    d.output_rate_hz = o.imu_rate_hz;
+    d.internal_rate_hz = o.imu_internal_rate_hz;
+    d.gravity_m_s2 = o.gravity_m_s2;
+    d.gyro_bias_max_rad_s = o.initial_gyro_bias_max_rad_s;
+    d.accel_bias_max_m_s2 = o.initial_accel_bias_max_m_s2;
+    d.impulses = o.scenario == Scenario::kImpulses;
+    d.seed = o.seed;
+    return generate_decimated_imu(tr.se3, tr.t_begin_ns, tr.t_end_ns, imu, d);
+  }
   ImuTrack track;
   std::mt19937_64 rng(o.seed * 0x9E3779B97F4A7C15ULL + 17);
   std::normal_distribution<double> n01(0.0, 1.0);
@@ -299,30 +374,91 @@ ImuTrack generate_imu(const SimTrajectory& tr, const ImuCalibration& imu, const 
     bg += rg * nvec();
     ba += ra * nvec();
   }
-  if (o.scenario == Scenario::kImpulses && !track.samples.empty()) {
-    // One impulse per 10 s of flight (at least 3), at the highest yaw rates, >= 1 s apart.
-    const double dur_s = static_cast<double>(tr.t_end_ns - tr.t_begin_ns) * 1e-9;
-    const std::size_t want = static_cast<std::size_t>(std::max(3.0, std::floor(dur_s / 10.0)));
-    std::vector<std::size_t> order(yaw_rate.size());
-    for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
-    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return yaw_rate[a] > yaw_rate[b]; });
-    const std::size_t sep = static_cast<std::size_t>(o.imu_rate_hz);
-    std::uniform_real_distribution<double> ua(30.0, 80.0), ug(5.0, 10.0);
-    for (std::size_t idx : order) {
-      if (track.impulse_index.size() >= want) break;
-      bool far = true;
-      for (std::size_t j : track.impulse_index) far = far && (idx > j ? idx - j : j - idx) >= sep;
-      if (!far) continue;
-      track.impulse_index.push_back(idx);
-      track.samples[idx].accel_m_s2 += ua(rng) * nvec().normalized();
-      track.samples[idx].gyro_rad_s += ug(rng) * nvec().normalized();
-    }
-    std::sort(track.impulse_index.begin(), track.impulse_index.end());
+  if (o.scenario == Scenario::kImpulses) {
+    add_impulses(yaw_rate, o.imu_rate_hz, static_cast<double>(tr.t_end_ns - tr.t_begin_ns) * 1e-9, rng, n01, &track);
   }
   return track;
 }
 
-int simulate(const SimOptions& o, std::string* error, const ProgressCallback& progress) {
+namespace {
+
+// The world of a run and the style's renderer over it.
+struct Scene {
+  World world;
+  std::unique_ptr<StereoRenderer> procedural;
+  std::unique_ptr<PhotoRenderer> photo;
+};
+
+// Builds *scene in place (the renderers keep a reference to scene->world). No world is built
+// when no frame is rendered (IMU-only runs in tests).
+void make_scene(const SimOptions& o, const SimTrajectory& tr, const RigCalibration& rig, int total, Scene* scene) {
+  if (total == 0) return;
+  std::vector<Eigen::Vector3d> path;
+  for (std::int64_t t = tr.t_begin_ns; t <= tr.t_end_ns; t += 100'000'000LL) path.push_back(tr.T_w_b(t).translation());
+  const std::uint32_t world_seed = static_cast<std::uint32_t>(o.seed * 2654435761ULL);
+  const bool textureless = o.scenario == Scenario::kTextureless;
+  if (o.style == SimStyle::kPhoto) {
+    PhotoWorldOptions wo = o.photo_world;
+    wo.seed = world_seed;
+    wo.textureless_walls = wo.textureless_walls || textureless;
+    const PhotoSource source = load_photo_source(o.texture_dataset);
+    scene->world = make_photo_world(path, wo, source);
+    scene->photo = std::make_unique<PhotoRenderer>(scene->world, rig, o.lens);
+    return;
+  }
+  WorldOptions wo = o.world;
+  wo.seed = world_seed;
+  wo.textureless_walls = o.world.textureless_walls || textureless;
+  scene->world = make_world(path, wo);
+  scene->procedural = std::make_unique<StereoRenderer>(scene->world, rig);
+}
+
+// Renders the pair of frame k at t_ns; returns the sub-exposures per camera (procedural: 1).
+int render_pair(const Scene& scene, const SimTrajectory& tr, const SimOptions& o, const RigCalibration& rig, int k,
+                std::int64_t t_ns, const RenderOptions& ro, std::uint8_t* left, std::uint8_t* right) {
+  const std::uint64_t noise_key = o.seed * 1000003ULL + static_cast<std::uint64_t>(k);
+  if (scene.procedural) {
+    scene.procedural->render_stereo(tr.T_w_b(t_ns), ro, noise_key, left, right);
+    return 1;
+  }
+  // Photo: exposure centred on the stamp, sub-exposures from the image motion during it.
+  const double ms = o.exposure.exposure_ms;
+  const std::int64_t half_ns = static_cast<std::int64_t>(std::llround(0.5e6 * ms));
+  const double blur_px =
+      exposure_blur_px(tr.T_w_b(t_ns - half_ns), tr.T_w_b(t_ns + half_ns), rig.cam[0].fx, o.exposure.near_depth_m);
+  const int n = sub_exposure_count(blur_px, o.exposure);
+  Eigen::Isometry3d poses[kMaxSubExposures];
+  for (int j = 0; j < n; ++j) poses[j] = tr.T_w_b(sub_exposure_time_ns(t_ns, ms, n, j));
+  scene.photo->render_stereo(poses, n, ro, noise_key, left, right);
+  return n;
+}
+
+void write_events(const SimOptions& o, const SimTrajectory& tr, const ImuTrack& imu, double mid_s) {
+  std::ofstream ev(o.out_dir + "/sim_events.csv");
+  ev << "#scenario " << scenario_name(o.scenario) << ", seed " << o.seed << ", style " << style_name(o.style)
+     << "\n#t_ns,event\n";
+  ev << tr.t_begin_ns << ",begin\n" << tr.flight_begin_ns << ",flight_begin\n";
+  for (std::size_t i : imu.impulse_index) ev << imu.samples[i].t_ns << ",imu_impulse\n";
+  if (o.scenario == Scenario::kDarkStart) ev << tr.t_begin_ns + 3'000'000'000LL << ",dark_end\n";
+  if (o.scenario == Scenario::kRightDropout) {
+    const auto mid_ns = tr.t_begin_ns + static_cast<std::int64_t>(mid_s * 1e9);
+    ev << mid_ns - 2'000'000'000LL << ",right_dropout_begin\n" << mid_ns + 2'000'000'000LL << ",right_dropout_end\n";
+  }
+  ev << tr.t_end_ns << ",end\n";
+  if (!ev) throw std::runtime_error(o.out_dir + "/sim_events.csv: write failed");
+}
+
+void write_imu(hal::EurocWriter& writer, const ImuTrack& imu) {
+  for (std::size_t i = 0; i < imu.samples.size(); ++i) {
+    if (writer.write_imu(imu.samples[i]) != Status::kOk || writer.write_groundtruth(imu.truth[i]) != Status::kOk) {
+      throw std::runtime_error(writer.error());
+    }
+  }
+}
+
+}  // namespace
+
+int simulate(const SimOptions& o, std::string* error, const ProgressCallback& progress, SimStats* stats) {
   if (!o.validate(error)) return 1;
   try {
     RigCalibration rig = rig_preset(o.camera_preset);
@@ -335,38 +471,25 @@ int simulate(const SimOptions& o, std::string* error, const ProgressCallback& pr
     const std::int64_t frame_dt_ns = static_cast<std::int64_t>(std::llround(1e9 / o.camera_rate_hz));
     int total = static_cast<int>((tr.t_end_ns - tr.t_begin_ns) / frame_dt_ns) + 1;
     if (o.max_frames >= 0) total = std::min(total, o.max_frames);
-    std::vector<Eigen::Vector3d> path;
-    for (std::int64_t t = tr.t_begin_ns; t <= tr.t_end_ns; t += 100'000'000LL) path.push_back(tr.spline.evaluate(t).p_w_b);
-    WorldOptions wo = o.world;
-    wo.seed = static_cast<std::uint32_t>(o.seed * 2654435761ULL);
-    wo.textureless_walls = o.world.textureless_walls || o.scenario == Scenario::kTextureless;
-    // No world to build when no frame is rendered (IMU-only runs in tests).
-    if (total == 0) wo.boxes = 0;
-    const World world = total > 0 ? make_world(path, wo) : World{};
-    std::unique_ptr<StereoRenderer> renderer;
-    if (total > 0) renderer = std::make_unique<StereoRenderer>(world, rig);
+    Scene scene;
+    make_scene(o, tr, rig, total, &scene);
 
     std::filesystem::create_directories(o.out_dir);
     hal::EurocWriter writer;
     writer.open(o.out_dir, rig, true);
-    for (std::size_t i = 0; i < imu.samples.size(); ++i) {
-      if (writer.write_imu(imu.samples[i]) != Status::kOk || writer.write_groundtruth(imu.truth[i]) != Status::kOk) {
-        throw std::runtime_error(writer.error());
-      }
-    }
+    write_imu(writer, imu);
     const double mid_s = 0.5 * static_cast<double>(tr.t_end_ns - tr.t_begin_ns) * 1e-9;
     std::vector<std::uint8_t> left(static_cast<std::size_t>(rig.cam[0].width) * rig.cam[0].height);
     std::vector<std::uint8_t> right(static_cast<std::size_t>(rig.cam[1].width) * rig.cam[1].height);
+    SimStats counts;
     for (int k = 0; k < total; ++k) {
       const std::int64_t t = tr.t_begin_ns + k * frame_dt_ns;
       const double ts = static_cast<double>(t - tr.t_begin_ns) * 1e-9;
-      const SplineState s = tr.spline.evaluate(t);
-      Eigen::Isometry3d T_w_b = Eigen::Isometry3d::Identity();
-      T_w_b.linear() = s.q_w_b.toRotationMatrix();
-      T_w_b.translation() = s.p_w_b;
       RenderOptions ro = o.render;
       if (o.exposure_change) ro.exposure_gain *= 1.0 + 0.35 * std::sin(2.0 * M_PI * ts / 8.0);
-      renderer->render_stereo(T_w_b, ro, o.seed * 1000003ULL + static_cast<std::uint64_t>(k), left.data(), right.data());
+      const int n = render_pair(scene, tr, o, rig, k, t, ro, left.data(), right.data());
+      counts.sub_exposures += n;
+      counts.max_sub_exposures = std::max(counts.max_sub_exposures, n);
       if (o.scenario == Scenario::kDarkStart && ts < 3.0) {
         std::fill(left.begin(), left.end(), 0);
         std::fill(right.begin(), right.end(), 0);
@@ -380,20 +503,12 @@ int simulate(const SimOptions& o, std::string* error, const ProgressCallback& pr
       f.left = ImageView{left.data(), rig.cam[0].width, rig.cam[0].height, rig.cam[0].width};
       f.right = ImageView{right.data(), rig.cam[1].width, rig.cam[1].height, rig.cam[1].width};
       if (writer.write_stereo(f) != Status::kOk) throw std::runtime_error(writer.error());
+      ++counts.frames;
       if (progress) progress(k + 1, total);
     }
     writer.close();
-    std::ofstream ev(o.out_dir + "/sim_events.csv");
-    ev << "#scenario " << scenario_name(o.scenario) << ", seed " << o.seed << "\n#t_ns,event\n";
-    ev << tr.t_begin_ns << ",begin\n" << tr.flight_begin_ns << ",flight_begin\n";
-    for (std::size_t i : imu.impulse_index) ev << imu.samples[i].t_ns << ",imu_impulse\n";
-    if (o.scenario == Scenario::kDarkStart) ev << tr.t_begin_ns + 3'000'000'000LL << ",dark_end\n";
-    if (o.scenario == Scenario::kRightDropout) {
-      const auto mid_ns = tr.t_begin_ns + static_cast<std::int64_t>(mid_s * 1e9);
-      ev << mid_ns - 2'000'000'000LL << ",right_dropout_begin\n" << mid_ns + 2'000'000'000LL << ",right_dropout_end\n";
-    }
-    ev << tr.t_end_ns << ",end\n";
-    if (!ev) throw std::runtime_error(o.out_dir + "/sim_events.csv: write failed");
+    write_events(o, tr, imu, mid_s);
+    if (stats) *stats = counts;
   } catch (const std::exception& e) {
     if (error) *error = e.what();
     return 1;

@@ -1,12 +1,19 @@
 #pragma once
-// The simulator backend (hal/sim): flies a real (or built-in) trajectory through a procedural
+// The simulator backend (hal/sim): flies a real (or built-in) trajectory through a simulated
 // room and writes an EuRoC-layout dataset (both cameras, IMU, state_groundtruth_estimate0 of the
 // body = IMU frame, sensor.yaml files) through hal/replay's EurocWriter. Deterministic per seed.
 //
 // Pipeline: ground truth (shared *_GT.txt: cam0, q = R_CW; or EuRoC data.csv: body) -> body poses
 // via T_b_c0 -> uniform 20 Hz control points -> cut [start, start + duration] -> scenario prefix
-// -> PoseSpline (C2) -> camera poses at camera_rate_hz, IMU at imu_rate_hz from the spline's
-// analytic derivatives + gravity + white noise + bias random walk -> renderer -> writer.
+// -> continuous trajectory -> IMU and camera poses from it -> renderer -> writer.
+//
+// Two independent styles (SimStyle), so the estimator is not measured on one simulator only:
+//  - procedural (the reference, unchanged): PoseSpline on SO(3) x R3, IMU at imu_rate_hz from
+//    the spline's analytic derivatives, procedural room and textures (renderer.hpp);
+//  - photo: Se3Spline (coupled SE(3)), IMU from rotation increments and position differences at
+//    an internal rate, integrated and decimated (decimated_imu.hpp), real-sized initial biases;
+//    a larger room textured with tiles of real EuRoC images (photo_world.hpp), uneven light,
+//    vignetting and motion blur (photo_renderer.hpp, exposure.hpp).
 
 #include <cstdint>
 #include <functional>
@@ -16,7 +23,12 @@
 #include "core/common/calibration.hpp"
 #include "core/common/imu_sample.hpp"
 #include "hal/replay/euroc_groundtruth.hpp"
+#include "hal/sim/exposure.hpp"
+#include "hal/sim/imu_track.hpp"
+#include "hal/sim/photo_renderer.hpp"
+#include "hal/sim/photo_world.hpp"
 #include "hal/sim/renderer.hpp"
+#include "hal/sim/se3_spline.hpp"
 #include "hal/sim/spline.hpp"
 
 namespace ums::sim {
@@ -36,6 +48,13 @@ inline constexpr Scenario kAllScenarios[] = {Scenario::kNominal, Scenario::kStan
                                              Scenario::kUniformStart, Scenario::kDarkStart,
                                              Scenario::kTextureless, Scenario::kImpulses,
                                              Scenario::kRightDropout};
+
+enum class SimStyle : std::uint8_t {
+  kProcedural,  // the reference simulator (default; its output does not change)
+  kPhoto,       // real-image textures, larger room, lens and light effects, SE(3) trajectory, decimated IMU
+};
+bool parse_style(const std::string& name, SimStyle* style);
+const char* style_name(SimStyle style);
 
 enum class CameraPreset : std::uint8_t { kEuroc, kD455 };
 bool parse_camera_preset(const std::string& name, CameraPreset* preset);
@@ -59,31 +78,50 @@ struct SimOptions {
   double initial_accel_bias_sigma_m_s2 = 0.02;    // per-axis std of the initial accel bias, m/s^2
   bool exposure_change = false;       // slow exposure oscillation, +-35 % over 8 s
   int max_frames = -1;                // render only the first N pairs (tests); < 0: all
-  WorldOptions world;
+  WorldOptions world;                 // procedural style's world
   RenderOptions render;
+  SimStyle style = SimStyle::kProcedural;
+  // Photo style only (the procedural style ignores these):
+  std::string texture_dataset;        // EuRoC dataset folder (holds mav0/) whose cam0/cam1 images
+                                      // texture the world; required
+  ExposureOptions exposure;           // exposure time (motion blur) and sub-exposure bounds
+  double imu_internal_rate_hz = 2000.0;       // Hz, the IMU's rate before integration/decimation
+  double initial_gyro_bias_max_rad_s = 0.08;  // initial gyro bias uniform in +-this per axis, rad/s
+  double initial_accel_bias_max_m_s2 = 0.1;   // initial accel bias uniform in +-this per axis, m/s^2
+  PhotoWorldOptions photo_world;      // (its seed and textureless_walls are set from seed, scenario)
+  PhotoLensOptions lens;              // vignetting per camera, shot noise
   bool validate(std::string* error) const;
 };
 
-// The continuous body trajectory of a run and its time span [t_begin_ns, t_end_ns].
+// The continuous body trajectory of a run and its time span [t_begin_ns, t_end_ns]. Camera
+// poses and the IMU both come from it (spline for the procedural style, se3 for the photo style).
 struct SimTrajectory {
-  PoseSpline spline;
+  SimStyle style = SimStyle::kProcedural;
+  PoseSpline spline;                  // procedural
+  Se3Spline se3;                      // photo
   std::int64_t t_begin_ns = 0;
   std::int64_t t_end_ns = 0;
   std::int64_t flight_begin_ns = 0;   // end of the scenario prefix (== t_begin without one)
+
+  Eigen::Isometry3d T_w_b(std::int64_t t_ns) const;  // body pose of the style's spline
 };
 SimTrajectory make_trajectory(const SimOptions& options, const RigCalibration& rig);
 
-struct ImuTrack {
-  std::vector<ImuSample> samples;                 // measured (noise, bias, impulses)
-  std::vector<hal::GroundTruthState> truth;       // at the same stamps, with the true biases
-  std::vector<std::size_t> impulse_index;         // samples carrying an impulse
-};
+// The style's IMU: analytic derivatives (procedural) or generate_decimated_imu (photo).
 ImuTrack generate_imu(const SimTrajectory& trajectory, const ImuCalibration& imu, const SimOptions& options);
 
 using ProgressCallback = std::function<void(int frames_done, int frames_total)>;
 
+struct SimStats {
+  int frames = 0;                 // stereo pairs written
+  long sub_exposures = 0;         // renders per camera summed over frames (photo: >= frames)
+  int max_sub_exposures = 0;      // most in one frame
+};
+
 // Writes the dataset to options.out_dir. Returns 0, or 1 with *error set (bad options, file
-// errors). Also writes out_dir/sim_events.csv (scenario events: impulses, dark/dropout spans).
-int simulate(const SimOptions& options, std::string* error, const ProgressCallback& progress = {});
+// errors). Also writes out_dir/sim_events.csv (header: scenario, seed, style; then scenario
+// events: impulses, dark/dropout spans). stats (optional) receives the rendering counts.
+int simulate(const SimOptions& options, std::string* error, const ProgressCallback& progress = {},
+             SimStats* stats = nullptr);
 
 }  // namespace ums::sim

@@ -217,6 +217,23 @@ TEST_CASE("umsvins simulate writes a dataset that replay reads, eval scores an e
   CHECK(run({"eval", "--estimate", dir + "/missing.tum", "--groundtruth", gt}).code == kExitFailure);
 }
 
+// The photo style needs real images: without --texture-dataset it fails (exit 1) naming the flag,
+// before writing anything; an unknown style is a usage error.
+TEST_CASE("umsvins simulate --style photo without --texture-dataset fails naming the flag", "[cli][sim]") {
+  const std::string dir = test::make_temp_dir("cli_sim_photo");
+  const Run r = run({"simulate", "--style", "photo", "--duration", "1", "--out", dir + "/ds", "--quiet"});
+  CHECK(r.code == kExitFailure);
+  CHECK(r.err.find("--texture-dataset") != std::string::npos);
+  CHECK_FALSE(std::filesystem::exists(dir + "/ds"));
+  CHECK(run({"simulate", "--style", "oil-painting", "--out", dir + "/x"}).code == kExitUsage);
+  const Run ok = run({"simulate", "--style", "photo", "--texture-dataset", test::euroc_micro_dir(), "--trajectory",
+                      test::groundtruth_dir() + "/V101_GT.txt", "--duration", "0.5", "--max-frames", "1",
+                      "--exposure-ms", "3", "--out", dir + "/ok", "--quiet"});
+  INFO(ok.err);
+  CHECK(ok.code == kExitOk);
+  CHECK(ok.out.find("photo style, 3 ms exposure") != std::string::npos);
+}
+
 TEST_CASE("umsvins replay: a missing dataset fails with its path", "[cli]") {
   const std::string missing = test::make_temp_dir("cli_missing") + "/no_such_dataset";
   const Run r = run({"replay", missing, "--out", test::make_temp_dir("cli_missing_out")});

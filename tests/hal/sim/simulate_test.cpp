@@ -4,8 +4,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <filesystem>
 #include <cstdio>
+#include <filesystem>
+#include <numeric>
 #include <string>
 #include <vector>
 
@@ -37,6 +38,19 @@ std::string slurp(const std::string& path) {
   while ((n = std::fread(buf, 1, sizeof buf, f)) > 0) out.append(buf, n);
   std::fclose(f);
   return out;
+}
+
+// FNV-1a 64 over bytes: a change of any byte changes the value.
+std::uint64_t fnv1a(const std::string& bytes, std::uint64_t h = 1469598103934665603ULL) {
+  for (unsigned char c : bytes) h = (h ^ c) * 1099511628211ULL;
+  return h;
+}
+
+std::string sorted_first_file(const std::string& dir) {
+  std::vector<std::string> names;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) names.push_back(e.path().string());
+  std::sort(names.begin(), names.end());
+  return names.empty() ? std::string() : names.front();
 }
 
 double median(std::vector<double> v) {
@@ -208,4 +222,199 @@ TEST_CASE("same seed gives the same dataset and the right camera is blank during
   CHECK(*std::max_element(pix.begin(), pix.end()) == 0);
   REQUIRE(read_png(root + "/a/mav0/cam0/data/" + l[2], &pix, &w, &h, &err));
   CHECK(*std::max_element(pix.begin(), pix.end()) > 100);
+}
+
+// The procedural style is the estimator's reference: its output must not change when the
+// simulator grows. The hash covers the IMU, the ground truth, the scenario events (after the
+// header line) and the decoded pixels of the first pair (not the PNG bytes: those depend on the
+// zlib build). Values recorded with the simulator before the photo style existed (2026-12-02).
+// The exact hash is checked on x86-64 only (libm may round differently elsewhere); the sample
+// values below hold on every architecture.
+TEST_CASE("procedural style output is unchanged (hash and sample values)", "[sim][procedural]") {
+  const std::string root = ums::test::make_temp_dir("sim_procedural_hash");
+  SimOptions o;
+  o.trajectory_path = gt_file("MH01");
+  o.scenario = Scenario::kImpulses;
+  o.start_s = 10.0;
+  o.duration_s = 3.0;
+  o.seed = 5;
+  o.max_frames = 2;
+  o.out_dir = root;
+  std::string err;
+  REQUIRE(simulate(o, &err) == 0);
+  const std::string mav0 = root + "/mav0";
+  const std::string imu_csv = slurp(mav0 + "/imu0/data.csv");
+  const std::string gt_csv = slurp(mav0 + "/state_groundtruth_estimate0/data.csv");
+  std::string events = slurp(root + "/sim_events.csv");
+  events = events.substr(events.find('\n') + 1);
+  std::vector<std::uint8_t> left, right;
+  int w = 0, h = 0;
+  REQUIRE(read_png(sorted_first_file(mav0 + "/cam0/data"), &left, &w, &h, &err));
+  REQUIRE(read_png(sorted_first_file(mav0 + "/cam1/data"), &right, &w, &h, &err));
+  std::uint64_t hash = fnv1a(imu_csv);
+  hash = fnv1a(gt_csv, hash);
+  hash = fnv1a(events, hash);
+  hash = fnv1a(std::string(left.begin(), left.end()), hash);
+  hash = fnv1a(std::string(right.begin(), right.end()), hash);
+  INFO("procedural hash " << std::hex << hash);
+#if defined(__x86_64__)
+  CHECK(hash == 0xdd606b8c50899054ULL);
+#endif
+  CHECK(std::count(imu_csv.begin(), imu_csv.end(), '\n') == 602);
+  // First IMU row (t, gyro, accel) and the impulse times, as recorded.
+  double row[7] = {};
+  REQUIRE(std::sscanf(imu_csv.c_str() + imu_csv.find('\n') + 1, "%lf,%lf,%lf,%lf,%lf,%lf,%lf", &row[0], &row[1],
+                      &row[2], &row[3], &row[4], &row[5], &row[6]) == 7);
+  const double expected[7] = {1403636590863555584.0, -0.044715011591944846, -0.11816054994042104, 0.086598538319492227,
+                              7.5644064606267385, -0.32332706527454291, -6.2612393274702187};
+  for (int i = 0; i < 7; ++i) CHECK(row[i] == Approx(expected[i]).epsilon(1e-9));
+  CHECK(events.find("1403636591593555584,imu_impulse") != std::string::npos);
+  CHECK(events.find("1403636593863555584,imu_impulse") != std::string::npos);
+  CHECK(std::abs(int(left[100 * 752 + 100]) - 89) <= 1);
+  CHECK(std::abs(int(right[300 * 752 + 400]) - 78) <= 1);
+}
+
+// The photo style cannot run without real images: a clear error naming the option.
+TEST_CASE("photo style without a texture dataset is an error naming the option", "[sim][photo]") {
+  SimOptions o;
+  o.style = SimStyle::kPhoto;
+  o.out_dir = ums::test::make_temp_dir("sim_photo_missing") + "/ds";
+  std::string err;
+  CHECK(simulate(o, &err) == 1);
+  CHECK(err.find("--texture-dataset") != std::string::npos);
+  CHECK_FALSE(std::filesystem::exists(o.out_dir));
+  o.texture_dataset = "/nonexistent/euroc";
+  o.duration_s = 1.0;
+  CHECK(simulate(o, &err) == 1);
+  CHECK(err.find("/nonexistent/euroc/mav0/cam0/data") != std::string::npos);
+  SimStyle s = SimStyle::kProcedural;
+  CHECK(parse_style("photo", &s));
+  CHECK(s == SimStyle::kPhoto);
+  CHECK_FALSE(parse_style("fancy", &s));
+}
+
+// Every scenario works in the photo style (V101 cuts, one rendered pair each, test-sized
+// textures); the events file names the style.
+TEST_CASE("every scenario generates in the photo style", "[sim][photo][scenario][files]") {
+  const std::string root = ums::test::make_temp_dir("sim_photo_scenarios");
+  for (Scenario sc : kAllScenarios) {
+    SimOptions o;
+    o.style = SimStyle::kPhoto;
+    o.texture_dataset = ums::test::euroc_micro_dir();
+    o.trajectory_path = gt_file("V101");
+    o.scenario = sc;
+    o.duration_s = 3.9;  // right-dropout: the flight's middle at 1.95 s, the dropout from the start
+    o.start_s = 10.0;
+    o.seed = 3;
+    o.max_frames = 1;
+    o.photo_world.texture_size = 256;
+    o.photo_world.box_materials = 2;
+    o.out_dir = root + "/" + scenario_name(sc);
+    std::string err;
+    SimStats stats;
+    INFO(scenario_name(sc) << ": " << err);
+    REQUIRE(simulate(o, &err, {}, &stats) == 0);
+    CHECK(stats.frames == 1);
+    CHECK(stats.sub_exposures >= 1);
+    const std::string events = slurp(o.out_dir + "/sim_events.csv");
+    CHECK(events.rfind(std::string("#scenario ") + scenario_name(sc) + ", seed 3, style photo\n", 0) == 0);
+    const std::string imu_csv = slurp(o.out_dir + "/mav0/imu0/data.csv");
+    const double prefix = sc == Scenario::kStandstillStart ? 5.0 : sc == Scenario::kUniformStart ? 6.0 : 0.0;
+    CHECK(std::count(imu_csv.begin(), imu_csv.end(), '\n') == Approx(200.0 * (3.9 + prefix)).margin(25));
+    std::vector<std::uint8_t> left, right;
+    int w = 0, h = 0;
+    REQUIRE(read_png(sorted_first_file(o.out_dir + "/mav0/cam0/data"), &left, &w, &h, &err));
+    REQUIRE(read_png(sorted_first_file(o.out_dir + "/mav0/cam1/data"), &right, &w, &h, &err));
+    const double mean_l = std::accumulate(left.begin(), left.end(), 0.0) / static_cast<double>(left.size());
+    const double mean_r = std::accumulate(right.begin(), right.end(), 0.0) / static_cast<double>(right.size());
+    if (sc == Scenario::kDarkStart) {
+      CHECK(mean_l == 0.0);
+    } else {
+      CHECK(mean_l > 60.0);
+      CHECK(mean_l < 180.0);
+    }
+    if (sc == Scenario::kRightDropout || sc == Scenario::kDarkStart) CHECK(mean_r == 0.0);
+    else CHECK(mean_r > 60.0);
+  }
+}
+
+// The uniform-start prefix stays genuinely unexcited in the photo style (SE(3) spline with equal
+// increments, decimated IMU): constant attitude and velocity, gyro 0 and accel = -R^T g without
+// noise; the standstill prefix rests.
+TEST_CASE("photo style: uniform-start is constant velocity and attitude, standstill rests", "[sim][photo][scenario]") {
+  SimOptions o;
+  o.style = SimStyle::kPhoto;
+  o.texture_dataset = "unused";
+  o.trajectory_path = gt_file("MH01");
+  o.start_s = 20.0;
+  o.duration_s = 10.0;
+  o.out_dir = "unused";
+  const ums::RigCalibration rig = rig_preset(CameraPreset::kEuroc);
+  ums::ImuCalibration quiet = rig.imu;
+  quiet.gyro_noise_density = quiet.accel_noise_density = quiet.gyro_random_walk = quiet.accel_random_walk = 0.0;
+
+  o.scenario = Scenario::kUniformStart;
+  const SimTrajectory tr = make_trajectory(o, rig);
+  CHECK(static_cast<double>(tr.flight_begin_ns - tr.t_begin_ns) * 1e-9 == Approx(5.94).margin(0.06));
+  const ImuTrack imu = generate_imu(tr, quiet, o);
+  const Eigen::Vector3d v0 = imu.truth.front().v_w_b;
+  CHECK(v0.norm() >= 0.5 - 1e-6);
+  for (std::size_t k = 0; imu.truth[k].t_ns < tr.flight_begin_ns - 100'000'000LL; k += 37) {
+    CHECK(ums::so3::angle(imu.truth[k].q_w_b.conjugate() * imu.truth.front().q_w_b) < 1e-9);
+    CHECK((imu.truth[k].v_w_b - v0).norm() < 1e-6);
+    CHECK((imu.samples[k].gyro_rad_s - imu.truth[k].gyro_bias_rad_s).norm() < 1e-9);
+    const Eigen::Vector3d f = imu.truth[k].q_w_b.conjugate() * Eigen::Vector3d(0, 0, 9.81);
+    CHECK((imu.samples[k].accel_m_s2 - imu.truth[k].accel_bias_m_s2 - f).norm() < 1e-5);
+  }
+
+  o.scenario = Scenario::kStandstillStart;
+  const SimTrajectory st = make_trajectory(o, rig);
+  const Eigen::Isometry3d T0 = st.T_w_b(st.t_begin_ns);
+  for (double ts : {0.5, 2.0, 4.8}) {
+    const Eigen::Isometry3d T = st.T_w_b(st.t_begin_ns + static_cast<std::int64_t>(ts * 1e9));
+    CHECK((T.translation() - T0.translation()).norm() < 1e-9);
+    CHECK(ums::so3::angle(Eigen::Matrix3d(T0.linear().transpose() * T.linear())) < 1e-9);
+  }
+}
+
+// Camera poses and the IMU come from one continuous trajectory: the ground truth written at a
+// frame's stamp is the pose the frame was rendered from, and the IMU integrated from one frame
+// reaches the next (noise off; 1 s apart).
+TEST_CASE("photo style: frames and IMU from the same trajectory", "[sim][photo][imu]") {
+  SimOptions o;
+  o.style = SimStyle::kPhoto;
+  o.texture_dataset = "unused";
+  o.trajectory_path = gt_file("V102");
+  o.start_s = 20.0;
+  o.duration_s = 12.0;
+  o.out_dir = "unused";
+  const ums::RigCalibration rig = rig_preset(CameraPreset::kEuroc);
+  ums::ImuCalibration quiet = rig.imu;
+  quiet.gyro_noise_density = quiet.accel_noise_density = quiet.gyro_random_walk = quiet.accel_random_walk = 0.0;
+  const SimTrajectory tr = make_trajectory(o, rig);
+  const ImuTrack imu = generate_imu(tr, quiet, o);
+  const double dt = 0.005;
+  const Eigen::Vector3d g(0, 0, -9.81);
+  std::vector<double> pos_err, rot_err;
+  for (std::size_t f0 = 0; f0 + 200 < imu.samples.size(); f0 += 200) {  // a frame every 10th sample
+    const Eigen::Isometry3d T_frame = tr.T_w_b(imu.truth[f0].t_ns);
+    CHECK((T_frame.translation() - imu.truth[f0].p_w_b).norm() < 1e-12);
+    Eigen::Quaterniond q = imu.truth[f0].q_w_b;
+    Eigen::Vector3d p = imu.truth[f0].p_w_b, v = imu.truth[f0].v_w_b;
+    for (std::size_t k = f0; k < f0 + 200; ++k) {
+      const Eigen::Vector3d w = 0.5 * (imu.samples[k].gyro_rad_s + imu.samples[k + 1].gyro_rad_s) - imu.truth[k].gyro_bias_rad_s;
+      const Eigen::Quaterniond q1 = (q * ums::so3::exp_quat(w * dt)).normalized();
+      const Eigen::Vector3d a0 = q * (imu.samples[k].accel_m_s2 - imu.truth[k].accel_bias_m_s2) + g;
+      const Eigen::Vector3d a1 = q1 * (imu.samples[k + 1].accel_m_s2 - imu.truth[k + 1].accel_bias_m_s2) + g;
+      p += v * dt + 0.25 * (a0 + a1) * dt * dt;
+      v += 0.5 * (a0 + a1) * dt;
+      q = q1;
+    }
+    const Eigen::Isometry3d T_next = tr.T_w_b(imu.truth[f0 + 200].t_ns);
+    pos_err.push_back((p - T_next.translation()).norm());
+    rot_err.push_back(ums::so3::angle(Eigen::Quaterniond(T_next.linear()).conjugate() * q) * 180.0 / M_PI);
+  }
+  WARN("photo V102: median 1 s integration error " << median(pos_err) * 100 << " cm, " << median(rot_err) << " deg (noise off)");
+  CHECK(median(pos_err) < 5e-4);
+  CHECK(median(rot_err) < 0.005);
 }
