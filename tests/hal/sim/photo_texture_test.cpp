@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "tests/common/test_paths.hpp"
+#include "tests/common/emulation.hpp"
 
 using namespace ums::sim;
 
@@ -145,6 +146,7 @@ TEST_CASE("photo material: real-image gradient statistics", "[sim][photo_texture
 // Acceptance: no grid of seams. The gradient energy across the cell boundaries is that of the
 // texture elsewhere with the cross-fade, and clearly higher with hard cuts (the metric's control).
 TEST_CASE("photo material: feathered seams carry no extra gradient energy", "[sim][photo_texture]") {
+  if (ums::test::skip_heavy_under_emulation()) return;
   const PhotoSource& src = euroc_micro_source();
   PhotoMaterialOptions o;
   std::vector<MosaicPatch> layout;

@@ -10,6 +10,7 @@
 #include "hal/sim/ray_cast.hpp"
 #include "hal/sim/simulate.hpp"
 #include "tests/common/test_paths.hpp"
+#include "tests/common/emulation.hpp"
 
 using namespace ums::sim;
 
@@ -69,6 +70,7 @@ double share_beyond(const std::vector<double>& sorted, double m) {
 }  // namespace
 
 TEST_CASE("photo world: walls 3-12 m from the path, high ceiling, boxes clear of the path", "[sim][photo_world]") {
+  if (ums::test::skip_heavy_under_emulation()) return;
   const Flight f = flight(SimStyle::kPhoto, "MH01");
   Eigen::Vector3d lo = f.path[0], hi = f.path[0];
   for (const auto& p : f.path) {
@@ -114,6 +116,7 @@ TEST_CASE("photo world: walls 3-12 m from the path, high ceiling, boxes clear of
 // beyond 6 m; the photo world a third of the image. Along MH01 (a large path already) the far
 // tail is what grows.
 TEST_CASE("photo world: the scene is deeper than the procedural room", "[sim][photo_world]") {
+  if (ums::test::skip_heavy_under_emulation()) return;
   for (const char* name : {"V102", "MH01"}) {
     const Flight photo = flight(SimStyle::kPhoto, name);
     const Flight proc = flight(SimStyle::kProcedural, name);

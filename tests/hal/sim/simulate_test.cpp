@@ -13,6 +13,7 @@
 #include "core/math/so3.hpp"
 #include "hal/replay/png_io.hpp"
 #include "tests/common/test_paths.hpp"
+#include "tests/common/emulation.hpp"
 
 using namespace ums::sim;
 
@@ -296,6 +297,7 @@ TEST_CASE("photo style without a texture dataset is an error naming the option",
 // Every scenario works in the photo style (V101 cuts, one rendered pair each, test-sized
 // textures); the events file names the style.
 TEST_CASE("every scenario generates in the photo style", "[sim][photo][scenario][files]") {
+  if (ums::test::skip_heavy_under_emulation()) return;
   const std::string root = ums::test::make_temp_dir("sim_photo_scenarios");
   for (Scenario sc : kAllScenarios) {
     SimOptions o;
