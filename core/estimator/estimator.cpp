@@ -282,13 +282,9 @@ void Estimator::write_output(const FrameFeatures& ff, const WindowFrame& f, Esti
   o.landmarks_in_solve = solved ? builder_->num_selected() : 0;
   o.n_3d_used = o.n_2d_left_used = o.n_2d_right_used = 0;
   if (solved) {
-    for (int i = 0; i < builder_->num_selected(); ++i) {
-      switch (builder_->selected(i).group()) {
-        case LandmarkGroup::k3D: ++o.n_3d_used; break;
-        case LandmarkGroup::k2DLeft: ++o.n_2d_left_used; break;
-        case LandmarkGroup::k2DRight: ++o.n_2d_right_used; break;
-      }
-    }
+    o.n_3d_used = builder_->num_selected(LandmarkGroup::k3D);
+    o.n_2d_left_used = builder_->num_selected(LandmarkGroup::k2DLeft);
+    o.n_2d_right_used = builder_->num_selected(LandmarkGroup::k2DRight);
     stats_.sum_landmarks_in_solve += o.landmarks_in_solve;
     stats_.sum_2d_in_solve += o.n_2d_left_used + o.n_2d_right_used;
     ++stats_.frames_solved;

@@ -46,7 +46,6 @@ void ProblemBuilder::set_init_prior(const SpeedBiasPrior::Vector9& target, const
   init_prior_frame_ = id;
 }
 
-const Landmark& ProblemBuilder::selected(int i) const { return landmarks_->at_pool(chosen_[i]); }
 
 bool ProblemBuilder::solve(const SolveSpec& spec, int max_iterations, double max_time_s, bool* converged) {
   build(spec);
@@ -66,6 +65,7 @@ int ProblemBuilder::build(const SolveSpec& spec) {
   problem_->clear();
   n_visual_ = 0;
   n_selected_ = 0;
+  n_selected_group_[0] = n_selected_group_[1] = n_selected_group_[2] = 0;
   add_state_blocks(spec);
   add_landmarks(spec.groups);
   stats_->peak_residuals = std::max(stats_->peak_residuals, static_cast<std::size_t>(n_visual_));
@@ -108,6 +108,7 @@ void ProblemBuilder::add_landmarks(std::uint8_t groups) {
     table_.note(lm_id, BlockKind::kLandmark, l.id);
     block_of_landmark_[idx] = lm_id;
     ++n_selected_;
+    ++n_selected_group_[static_cast<int>(l.group())];
     add_landmark_edges(idx, lm_id);
   }
 }

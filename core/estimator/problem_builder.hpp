@@ -70,7 +70,9 @@ class ProblemBuilder {
   BlockTable& blocks() { return table_; }
   int oldest_frame_blocks(int* ids) const;
   int num_selected() const { return n_selected_; }
-  const Landmark& selected(int i) const;
+  // Of those, in one feature class: counted when chosen, because a landmark of the last solve may
+  // be released before the frame's output is written (outliers, a failed alignment's restore).
+  int num_selected(LandmarkGroup group) const { return n_selected_group_[static_cast<int>(group)]; }
 
  private:
   int build(const SolveSpec& spec);
@@ -93,6 +95,7 @@ class ProblemBuilder {
   std::unique_ptr<int[]> chosen_;              // pool indices of the landmarks in the problem
   std::unique_ptr<int[]> block_of_landmark_;   // by pool index
   int n_selected_ = 0;
+  int n_selected_group_[3] = {0, 0, 0};
   BlockTable table_;
   int pose_id_[Window::kSlots] = {};
   int sb_id_[Window::kSlots] = {};
