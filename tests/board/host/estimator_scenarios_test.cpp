@@ -13,6 +13,7 @@
 
 #include "board/host/commands.hpp"
 #include "board/host/sweep.hpp"
+#include "tests/common/emulation.hpp"
 #include "tests/common/test_paths.hpp"
 
 namespace {
@@ -59,21 +60,12 @@ Flight fly(const std::string& trajectory, const std::string& scenario, double du
   return f;
 }
 
-bool skip_under_emulation() {
-#if defined(__aarch64__) || defined(__arm__)
-  WARN("rendered flights are host-only (minutes under qemu); the micro-sequence estimator test runs here");
-  return true;
-#else
-  return false;
-#endif
-}
-
 double pose_fraction(const Flight& f) { return f.number("estimator.poses_written") / f.number("frames"); }
 
 }  // namespace
 
 TEST_CASE("estimator scenario nominal (V101, 12 s): ATE <= 5 cm, a pose for every frame", "[estimator][scenario]") {
-  if (skip_under_emulation()) return;
+  if (ums::test::skip_heavy_under_emulation()) return;
   const Flight f = fly("V101", "nominal", 12);
   INFO(f.out);
   REQUIRE(f.code == 0);
@@ -85,7 +77,7 @@ TEST_CASE("estimator scenario nominal (V101, 12 s): ATE <= 5 cm, a pose for ever
 }
 
 TEST_CASE("estimator scenario standstill-start (MH01): initialized at once from the IMU at rest", "[estimator][scenario]") {
-  if (skip_under_emulation()) return;
+  if (ums::test::skip_heavy_under_emulation()) return;
   const Flight f = fly("MH01", "standstill-start", 12);
   INFO(f.out);
   REQUIRE(f.code == 0);
@@ -97,7 +89,7 @@ TEST_CASE("estimator scenario standstill-start (MH01): initialized at once from 
 }
 
 TEST_CASE("estimator scenario dark-start (V101): IMU_ONLY while dark, then VIO", "[estimator][scenario]") {
-  if (skip_under_emulation()) return;
+  if (ums::test::skip_heavy_under_emulation()) return;
   const Flight f = fly("V101", "dark-start", 12);
   INFO(f.out);
   REQUIRE(f.code == 0);
@@ -112,7 +104,7 @@ TEST_CASE("estimator scenario dark-start (V101): IMU_ONLY while dark, then VIO",
 }
 
 TEST_CASE("estimator scenario uniform-start (V101): VO while the IMU cannot see gravity, then VIO", "[estimator][scenario]") {
-  if (skip_under_emulation()) return;
+  if (ums::test::skip_heavy_under_emulation()) return;
   const Flight f = fly("V101", "uniform-start", 14);
   INFO(f.out);
   REQUIRE(f.code == 0);
@@ -129,7 +121,7 @@ TEST_CASE("estimator scenario uniform-start (V101): VO while the IMU cannot see 
 }
 
 TEST_CASE("estimator scenario nominal (MH01, 6 s): a moving start reaches VIO by the alignment within 2 s", "[estimator][scenario]") {
-  if (skip_under_emulation()) return;
+  if (ums::test::skip_heavy_under_emulation()) return;
   const Flight f = fly("MH01", "nominal", 6);  // moves from the first frame (the hall's hop)
   INFO(f.out);
   REQUIRE(f.code == 0);
@@ -141,7 +133,7 @@ TEST_CASE("estimator scenario nominal (MH01, 6 s): a moving start reaches VIO by
 }
 
 TEST_CASE("estimator scenario impulses (V101): saturated samples counted, ATE <= 7.5 cm", "[estimator][scenario]") {
-  if (skip_under_emulation()) return;
+  if (ums::test::skip_heavy_under_emulation()) return;
   const Flight f = fly("V101", "impulses", 12);
   INFO(f.out);
   REQUIRE(f.code == 0);
@@ -152,7 +144,7 @@ TEST_CASE("estimator scenario impulses (V101): saturated samples counted, ATE <=
 }
 
 TEST_CASE("estimator scenario textureless (V101): 2D features in use, ATE <= 10 cm", "[estimator][scenario]") {
-  if (skip_under_emulation()) return;
+  if (ums::test::skip_heavy_under_emulation()) return;
   const Flight f = fly("V101", "textureless", 12);
   INFO(f.out);
   REQUIRE(f.code == 0);
