@@ -39,7 +39,8 @@ ums::ImuCalibration noise_free() {
 Eigen::Vector3d specific_force(const Se3Spline& s, std::int64_t t, double g) {
   const std::int64_t h = 100'000;
   const double hs = 1e-4;
-  auto p = [&](std::int64_t dt) { return s.evaluate(t + dt).translation(); };
+  // Returns a value: translation() of the temporary would be a view into a destroyed object.
+  auto p = [&](std::int64_t dt) -> Eigen::Vector3d { return s.evaluate(t + dt).translation(); };
   const Eigen::Vector3d a = (-p(-2 * h) + 16.0 * p(-h) - 30.0 * p(0) + 16.0 * p(h) - p(2 * h)) / (12.0 * hs * hs);
   return s.evaluate(t).linear().transpose() * (a + Eigen::Vector3d(0.0, 0.0, g));
 }
