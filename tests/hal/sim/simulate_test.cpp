@@ -258,10 +258,15 @@ TEST_CASE("procedural style output is unchanged (hash and sample values)", "[sim
   hash = fnv1a(std::string(left.begin(), left.end()), hash);
   hash = fnv1a(std::string(right.begin(), right.end()), hash);
   INFO("procedural hash " << std::hex << hash);
-#if defined(__x86_64__)
-  CHECK(hash == 0xdd606b8c50899054ULL);
-#endif
   CHECK(std::count(imu_csv.begin(), imu_csv.end(), '\n') == 602);
+  // The recorded values are x86-64's: libstdc++ draws std::normal_distribution through long
+  // double, which is 80-bit there and 128-bit on aarch64 (and 64-bit on armhf), so the noise, the
+  // box placement and hence the pixels differ by architecture. Elsewhere only the shape is checked.
+#if !defined(__x86_64__)
+  WARN("procedural output pinned on x86-64 only (long double draws differ by architecture)");
+  return;
+#endif
+  CHECK(hash == 0xdd606b8c50899054ULL);
   // First IMU row (t, gyro, accel) and the impulse times, as recorded.
   double row[7] = {};
   REQUIRE(std::sscanf(imu_csv.c_str() + imu_csv.find('\n') + 1, "%lf,%lf,%lf,%lf,%lf,%lf,%lf", &row[0], &row[1],
