@@ -195,12 +195,18 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
   pipeline.set_static_bytes(static_cast<std::size_t>(startup_allocs.bytes()) + sizeof(ReplayPipeline));
 
   const std::filesystem::path trajectory_path = out_dir / "trajectory.tum";
+  const std::filesystem::path states_path = out_dir / "states.csv";
   std::FILE* trajectory = nullptr;
+  std::FILE* states = nullptr;
   if (pipeline.has_estimator()) {
     trajectory = std::fopen(trajectory_path.c_str(), "w");
     if (trajectory == nullptr) throw std::runtime_error(trajectory_path.string() + ": cannot open for writing");
     std::fputs("# t_s x y z qx qy qz qw (body = IMU in world; umsvins replay)\n", trajectory);
     pipeline.set_trajectory_output(trajectory);
+    states = std::fopen(states_path.c_str(), "w");
+    if (states == nullptr) throw std::runtime_error(states_path.string() + ": cannot open for writing");
+    std::fputs(TumPoseSink::state_header(), states);
+    pipeline.set_state_output(states);
   }
   const bool quiet = args.has("quiet");
   Progress progress("replay", static_cast<unsigned long>(reader.total_pairs_estimate()));
@@ -240,7 +246,9 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
   const ReplaySummary summary = pipeline.summary();
   if (trajectory != nullptr) {
     pipeline.set_trajectory_output(nullptr);
+    pipeline.set_state_output(nullptr);
     if (std::fclose(trajectory) != 0) throw std::runtime_error(trajectory_path.string() + ": write failed");
+    if (std::fclose(states) != 0) throw std::runtime_error(states_path.string() + ": write failed");
   }
   // Accuracy against the dataset's ground truth, when it has one.
   std::unique_ptr<eval::EvalResult> accuracy;

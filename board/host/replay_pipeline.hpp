@@ -66,6 +66,8 @@ class ReplayPipeline final : public MeasurementSink {
   void set_trajectory_output(std::FILE* file) { poses_.set_trajectory_output(file); }
   // Where the IMU-rate pose goes (same format, one line per IMU sample once a pose exists).
   void set_imu_pose_output(std::FILE* file) { poses_.set_imu_pose_output(file); }
+  // Where the per-frame mode, velocity and biases go (CSV, TumPoseSink::state_header()).
+  void set_state_output(std::FILE* file) { poses_.set_state_output(file); }
   // Keyframe images for later use (none by default); not owned.
   void set_keyframe_image_sink(KeyframeImageSink* sink) { vio_.set_keyframe_image_sink(sink); }
   std::uint64_t poses_written() const { return poses_.poses_written(); }

@@ -18,8 +18,20 @@ void write_pose(std::FILE* f, std::int64_t t_ns, const Eigen::Vector3d& p, const
 
 }  // namespace
 
+const char* TumPoseSink::state_header() {
+  return "# t_s,mode,keyframe,v_x,v_y,v_z [m/s],bg_x,bg_y,bg_z [rad/s],ba_x,ba_y,ba_z [m/s^2],"
+         "landmarks_3d,landmarks_2d\n";
+}
+
 void TumPoseSink::on_frame_pose(const EstimatorOutput& out) {
   if (trajectory_ != nullptr) write_pose(trajectory_, out.t_ns, out.p_w_b, out.q_w_b);
+  if (states_ != nullptr) {
+    std::fprintf(states_, "%lld.%09lld,%s,%d,%.5f,%.5f,%.5f,%.6f,%.6f,%.6f,%.5f,%.5f,%.5f,%d,%d\n",
+                 static_cast<long long>(out.t_ns / 1000000000), static_cast<long long>(out.t_ns % 1000000000),
+                 to_string(out.mode), out.keyframe ? 1 : 0, out.v_w_b.x(), out.v_w_b.y(), out.v_w_b.z(), out.bg.x(),
+                 out.bg.y(), out.bg.z(), out.ba.x(), out.ba.y(), out.ba.z(), out.n_3d_used,
+                 out.n_2d_left_used + out.n_2d_right_used);
+  }
   ++poses_written_;
 }
 
