@@ -38,6 +38,11 @@ struct AppConfig {
   double beta_3d = 1.0;                 // 1, paper eq. (5) beta1: weight of 3D landmarks' residuals
   double beta_2d = 1.0;                 // 1, paper eq. (5) beta2: weight of 2D landmarks' residuals
   double min_stereo_disparity_px = 0.0; // px, a stereo match with less disparity counts as 2D
+  double landmark_spread_px = 0.0;      // px, cells over which a solve's landmarks are spread (0: off)
+  int stage_min_2d_left = 0;            // 2D-left landmarks below which the stage comparison is skipped
+  double feature_sigma_px = 1.5;        // px, feature noise that whitens the visual residuals
+  double huber_px = 1.5;                // px, Huber threshold on the visual residuals
+  double outlier_px = 3.0;              // px, an observation this far off marks its landmark an outlier
 
   std::string source;                   // where it came from: the config path, or "sensor.yaml"
 

@@ -35,6 +35,11 @@ EstimatorOptions estimator_options_from(const AppConfig& config, const ReplayPip
   o.beta_3d = config.beta_3d;
   o.beta_2d = config.beta_2d;
   o.min_stereo_disparity_px = config.min_stereo_disparity_px;
+  o.sigma_px = config.feature_sigma_px;
+  o.landmark_spread_px = config.landmark_spread_px;
+  o.stage_min_2d_left = config.stage_min_2d_left;
+  o.huber_px = config.huber_px;
+  o.outlier_px = config.outlier_px;
   return o;
 }
 
@@ -298,6 +303,7 @@ void ReplayPipeline::write_estimator_stats(JsonWriter& w) const {
       .value("stage_kept_2d_left", e.stage_kept_2d_left)
       .value("stage_added_2d_right", e.stage_added_2d_right)
       .value("stage_3d_sufficient", e.stage_3d_sufficient)
+      .value("stage_few_2d_left", e.stage_few_2d_left)
       .value("outlier_landmarks", e.outlier_landmarks)
       .value("second_rounds", e.second_rounds)
       .value("marginalized_old", e.marginalized_old)

@@ -45,6 +45,7 @@ ProblemBuilderOptions builder_options(const EstimatorOptions& o) {
   b.function_tolerance = o.function_tolerance;
   b.selection.budget = o.max_landmarks_in_solve;
   b.selection.share_2d = o.share_2d;
+  b.selection.spread_cell_tan = o.landmark_spread_px / o.focal_px;
   b.still_sigma_m = o.still_sigma_m;
   b.still_sigma_rad = o.still_sigma_rad;
   b.still_sigma_v = o.still_sigma_v;

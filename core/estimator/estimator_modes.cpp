@@ -110,11 +110,17 @@ bool Estimator::solve_stages(WindowFrame& f, SolveSpec* spec) {
     spec->groups = kAllGroups;
     builder_->solve(*spec, it, 1e9, &converged);
     ++stats_.stage_added_2d_right;
-  } else if (count_candidates(*landmarks_, k2DLeftGroup) == 0) {
+  } else if (const int n_2d_left = count_candidates(*landmarks_, k2DLeftGroup); n_2d_left == 0) {
     // No 2D-left landmark to add: the second stage would be the first again.
     spec->groups = k3DGroup;
     builder_->solve(*spec, it, 1e9, &converged);
     ++stats_.stage_3d_sufficient;
+  } else if (n_2d_left < options_.stage_min_2d_left) {
+    // A handful of 2D-left landmarks beside the stereo ones cannot move the pose away from the
+    // stereo-only solution: the comparison would cost a solve and always agree.
+    spec->groups = k3DGroup | k2DLeftGroup;
+    builder_->solve(*spec, it, 1e9, &converged);
+    ++stats_.stage_few_2d_left;
   } else {
     // The paper's two stages: stereo alone and stereo + 2D-left from the same start; agreement
     // keeps the latter, disagreement brings in the 2D-right features as well.

@@ -40,6 +40,8 @@ void EstimatorOptions::validate() const {
   require(imu_noise_inflation > 0.0, "imu_noise_inflation", imu_noise_inflation);
   require(imu_walk_inflation > 0.0, "imu_walk_inflation", imu_walk_inflation);
   require(min_stereo_disparity_px >= 0.0, "min_stereo_disparity_px", min_stereo_disparity_px);
+  require(landmark_spread_px >= 0.0, "landmark_spread_px", landmark_spread_px);
+  require(stage_min_2d_left >= 0, "stage_min_2d_left", stage_min_2d_left);
   preintegration.validate();
   keyframe.validate();
   standstill.validate();

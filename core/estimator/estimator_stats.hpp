@@ -35,6 +35,7 @@ struct EstimatorStats {
   std::uint64_t stage_kept_2d_left = 0;   // 3D vs 3D+2D-left agreed
   std::uint64_t stage_added_2d_right = 0; // disagreed or too few 3D: all classes
   std::uint64_t stage_3d_sufficient = 0;  // no 2D-left landmark to try: one stage
+  std::uint64_t stage_few_2d_left = 0;    // fewer than stage_min_2d_left: one solve with them
   std::uint64_t outlier_landmarks = 0;
   std::uint64_t second_rounds = 0;        // frames whose round 2 ran (outliers or not converged)
   std::uint64_t marginalized_old = 0;

@@ -17,6 +17,9 @@ enum GroupMask : std::uint8_t { k3DGroup = 1, k2DLeftGroup = 2, k2DRightGroup = 
 struct SelectionPolicy {
   int budget = 100;       // landmarks per solve
   double share_2d = 0.3;  // share of the budget offered to 2D landmarks
+  double spread_cell_tan = 0.0;  // > 0: every viewing-direction cell of this size (tangent plane
+                                 // of the camera, px / focal px) gives its best landmark before any
+                                 // cell gives its second; 0: best first, wherever they are
 };
 
 bool is_candidate(const Landmark& l, std::uint8_t groups);

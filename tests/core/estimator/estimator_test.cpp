@@ -43,13 +43,13 @@ struct MicroRun {
 
 // The real EuRoC micro sequence (V1_01, the vehicle standing on the floor) through the front end
 // and the estimator, as the replay pipeline does (without its gyro hint: nothing moves).
-MicroRun run_micro() {
+MicroRun run_micro(const ums::EstimatorOptions& options = ums::EstimatorOptions()) {
   ums::hal::EurocReader reader;
   reader.open(ums::test::euroc_micro_dir(), ums::hal::EurocReaderOptions());
   const ums::RigCalibration rig = reader.calibration();
   ums::FrontendOptions fo;
   auto frontend = std::make_unique<ums::Frontend>(fo, rig);
-  ums::EstimatorOptions eo;
+  ums::EstimatorOptions eo = options;
   eo.focal_px = rig.cam[0].fx;
   auto estimator = std::make_unique<ums::Estimator>(eo, rig);
   auto features = std::make_unique<ums::FrameFeatures>();
@@ -128,6 +128,38 @@ TEST_CASE("estimator on the real EuRoC micro sequence at rest: initializes withi
   CHECK(run.steady_allocations == 0);
   CHECK(run.stats.drops_landmarks == 0);
   CHECK(run.stats.drops_residuals == 0);
+}
+
+TEST_CASE("estimator: skipping the stage comparison for a few 2D-left landmarks keeps every pose", "[estimator]") {
+  // The comparison restores the window and solves 3D + 2D-left from the same start when the two
+  // stages agree, so skipping it gives the same poses to the bit wherever it would have agreed.
+  const MicroRun paper = run_micro();
+  REQUIRE(paper.stats.stage_kept_2d_left > 0);
+  REQUIRE(paper.stats.stage_added_2d_right == 0);
+  ums::EstimatorOptions o;
+  o.stage_min_2d_left = 1000;
+  const MicroRun skipped = run_micro(o);
+  CHECK(skipped.stats.stage_kept_2d_left == 0);
+  CHECK(skipped.stats.stage_few_2d_left == paper.stats.stage_kept_2d_left);
+  REQUIRE(skipped.outputs.size() == paper.outputs.size());
+  for (std::size_t k = 0; k < paper.outputs.size(); ++k) {
+    CHECK(skipped.outputs[k].p_w_b == paper.outputs[k].p_w_b);
+    CHECK(skipped.outputs[k].q_w_b.coeffs() == paper.outputs[k].q_w_b.coeffs());
+  }
+  CHECK(skipped.steady_allocations == 0);
+}
+
+TEST_CASE("estimator: landmarks spread over the view still hold the rig at rest, allocating nothing", "[estimator]") {
+  ums::EstimatorOptions o;
+  o.landmark_spread_px = 80.0;
+  const MicroRun run = run_micro(o);
+  REQUIRE(run.stats.initialized);
+  double max_drift_m = 0.0;
+  for (const ums::EstimatorOutput& out : run.outputs) {
+    if (out.valid) max_drift_m = std::max(max_drift_m, (out.p_w_b - run.outputs.front().p_w_b).norm());
+  }
+  CHECK(max_drift_m <= 0.02);
+  CHECK(run.steady_allocations == 0);
 }
 
 TEST_CASE("estimator: every keyframe leaving the window reaches the keyframe outlet with its points", "[estimator]") {
