@@ -26,10 +26,13 @@ const char* TumPoseSink::state_header() {
 void TumPoseSink::on_frame_pose(const EstimatorOutput& out) {
   if (trajectory_ != nullptr) write_pose(trajectory_, out.t_ns, out.p_w_b, out.q_w_b);
   if (states_ != nullptr) {
-    std::fprintf(states_, "%lld.%09lld,%s,%d,%.5f,%.5f,%.5f,%.6f,%.6f,%.6f,%.5f,%.5f,%.5f,%d,%d\n",
-                 static_cast<long long>(out.t_ns / 1000000000), static_cast<long long>(out.t_ns % 1000000000),
-                 to_string(out.mode), out.keyframe ? 1 : 0, out.v_w_b.x(), out.v_w_b.y(), out.v_w_b.z(), out.bg.x(),
-                 out.bg.y(), out.bg.z(), out.ba.x(), out.ba.y(), out.ba.z(), out.n_3d_used,
+    // Several short calls: glibc's printf takes a heap scratch buffer for a format with many
+    // conversions (15 here), which the steady-state allocation count would see every frame.
+    std::fprintf(states_, "%lld.%09lld,%s,%d,", static_cast<long long>(out.t_ns / 1000000000),
+                 static_cast<long long>(out.t_ns % 1000000000), to_string(out.mode), out.keyframe ? 1 : 0);
+    std::fprintf(states_, "%.5f,%.5f,%.5f,", out.v_w_b.x(), out.v_w_b.y(), out.v_w_b.z());
+    std::fprintf(states_, "%.6f,%.6f,%.6f,", out.bg.x(), out.bg.y(), out.bg.z());
+    std::fprintf(states_, "%.5f,%.5f,%.5f,%d,%d\n", out.ba.x(), out.ba.y(), out.ba.z(), out.n_3d_used,
                  out.n_2d_left_used + out.n_2d_right_used);
   }
   ++poses_written_;
