@@ -34,12 +34,12 @@ struct AppConfig {
   // Back-end weights (ours; docs/results.md "Weights" has the measurements behind the defaults)
   double imu_noise_scale = 2.0;         // 1, multiplies the calibrated IMU white-noise densities
   double imu_walk_scale = 6.0;          // 1, multiplies the calibrated IMU bias random walks
-  int max_landmarks_in_solve = 100;     // landmarks per window solve, best first (paper: 100-300)
+  int max_landmarks_in_solve = 150;     // landmarks per window solve, best first (paper: 100-300)
   double beta_3d = 1.0;                 // 1, paper eq. (5) beta1: weight of 3D landmarks' residuals
   double beta_2d = 1.0;                 // 1, paper eq. (5) beta2: weight of 2D landmarks' residuals
   double min_stereo_disparity_px = 0.0; // px, a stereo match with less disparity counts as 2D
   double landmark_spread_px = 0.0;      // px, cells over which a solve's landmarks are spread (0: off)
-  int stage_min_2d_left = 0;            // 2D-left landmarks below which the stage comparison is skipped
+  int stage_min_2d_left = 10;           // 2D-left landmarks below which the stage comparison is skipped
   double feature_sigma_px = 1.5;        // px, feature noise that whitens the visual residuals
   double huber_px = 1.5;                // px, Huber threshold on the visual residuals
   double outlier_px = 3.0;              // px, an observation this far off marks its landmark an outlier

@@ -29,7 +29,7 @@ struct EstimatorOptions {
 
   // --- window and features ---
   int window_size = 11;                   // frames incl. the newest (<= capacity::kWindowSize)
-  int max_landmarks_in_solve = 100;       // landmarks per solve, best first (paper: best 100-300)
+  int max_landmarks_in_solve = 150;       // landmarks per solve, best first (paper: best 100-300)
   double min_depth_m = 0.1;               // m, landmarks closer are rejected
   double max_depth_m = 60.0;              // m, landmarks farther are not used (no parallax)
   double landmark_spread_px = 0.0;        // px at focal_px: > 0 spreads the landmarks of a solve
@@ -41,7 +41,7 @@ struct EstimatorOptions {
 
   // --- two-stage solve (paper Sec. III-C) ---
   int min_3d_landmarks = 25;              // fewer 3D landmarks in the window: add 2D-right at once
-  int stage_min_2d_left = 0;              // fewer 2D-left candidates: one solve with them, no
+  int stage_min_2d_left = 10;             // fewer 2D-left candidates: one solve with them, no
                                           // stereo-only comparison (0: always compare, the paper)
   double stage_agree_m = 0.05;            // m, stereo vs mono-stereo newest pose agreement
   double stage_agree_deg = 1.0;           // deg

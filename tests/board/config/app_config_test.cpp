@@ -201,7 +201,8 @@ TEST_CASE("the back end's weights are keys of their own", "[config]") {
   const std::string dir = ums::test::make_temp_dir("config_weights");
   const std::string path = write_vins_config(
       dir, std::string(kVinsConfig) +
-               "imu_noise_scale: 3.5\nimu_walk_scale: 8\nmax_landmarks_in_solve: 200\nbeta_3d: 1.5\nbeta_2d: 0.5\nmin_stereo_disparity: 2\n");
+               "imu_noise_scale: 3.5\nimu_walk_scale: 8\nmax_landmarks_in_solve: 200\nbeta_3d: 1.5\nbeta_2d: 0.5\nmin_stereo_disparity: 2\n"
+               "landmark_spread_px: 80\nstage_min_2d_left: 0\nfeature_sigma_px: 2\nhuber_px: 1\noutlier_px: 4\n");
   std::vector<std::string> warnings;
   const ums::AppConfig c = ums::load_config(path, micro_calibration(), &warnings);
   CHECK(warnings.empty());
@@ -211,6 +212,18 @@ TEST_CASE("the back end's weights are keys of their own", "[config]") {
   CHECK(c.beta_3d == 1.5);
   CHECK(c.beta_2d == 0.5);
   CHECK(c.min_stereo_disparity_px == 2.0);
+  CHECK(c.landmark_spread_px == 80.0);
+  CHECK(c.stage_min_2d_left == 0);
+  CHECK(c.feature_sigma_px == 2.0);
+  CHECK(c.huber_px == 1.0);
+  CHECK(c.outlier_px == 4.0);
+  // Without the keys: the defaults (docs/results.md, "Weights", has the measurements behind them).
+  const ums::AppConfig d = ums::load_config(write_vins_config(ums::test::make_temp_dir("config_weights_default"),
+                                                              kVinsConfig),
+                                            micro_calibration(), &warnings);
+  CHECK(d.max_landmarks_in_solve == 150);
+  CHECK(d.stage_min_2d_left == 10);
+  CHECK(d.landmark_spread_px == 0.0);
 }
 
 TEST_CASE("unknown keys warn with file and key, known VINS keys are silent", "[config]") {
