@@ -5,38 +5,11 @@
 
 #include "core/estimator/state_blocks.hpp"
 #include "core/estimator/window.hpp"
+#include "tests/core/estimator/stereo_scene.hpp"
 
 namespace {
 
-// A stereo rig 0.11 m apart along x (cameras looking along the body z), frames 0.2 m apart in x.
-struct Scene {
-  ums::Window window{ums::PreintegrationOptions()};
-  std::unique_ptr<ums::FrameFeatures> ff = std::make_unique<ums::FrameFeatures>();
-  Scene() {
-    Eigen::Isometry3d T_b_c1 = Eigen::Isometry3d::Identity();
-    T_b_c1.translation().x() = 0.11;
-    window.extrinsics().set(Eigen::Isometry3d::Identity(), T_b_c1);
-  }
-  // Observations of points p_w from a new frame at x = x_m; stereo: both cameras.
-  int add_frame(double x_m, const Eigen::Vector3d* p_w, int n, bool stereo, ums::LandmarkMap* map) {
-    ums::WindowFrame& f = window.next();
-    ums::state::p(f.pose) = Eigen::Vector3d(x_m, 0, 0);
-    window.push_next();
-    const int slot = window.slot_of(f);
-    window.choose_next_slot();
-    ff->features.clear();
-    for (int i = 0; i < n; ++i) {
-      ums::FeatureObservation o;
-      o.id = static_cast<std::uint32_t>(i + 1);
-      o.cls = stereo ? ums::FeatureClass::k3D : ums::FeatureClass::k2DLeft;
-      const Eigen::Vector3d p0 = p_w[i] - Eigen::Vector3d(x_m, 0, 0);
-      o.bearing_left = p0.normalized().cast<float>();
-      o.bearing_right = (p0 - Eigen::Vector3d(0.11, 0, 0)).normalized().cast<float>();
-      ff->features.push_back(o);
-    }
-    return map->ingest(*ff, slot, Eigen::Matrix3d::Identity()) == 0 ? slot : -1;
-  }
-};
+using Scene = ums::test::StereoScene;
 
 Eigen::Vector3d point(int i) { return Eigen::Vector3d(-1.0 + 0.1 * i, 0.5 - 0.05 * i, 4.0 + 0.2 * i); }
 

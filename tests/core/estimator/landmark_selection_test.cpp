@@ -7,8 +7,7 @@
 
 #include "core/common/capacity.hpp"
 #include "core/estimator/landmark_map.hpp"
-#include "core/estimator/state_blocks.hpp"
-#include "core/estimator/window.hpp"
+#include "tests/core/estimator/stereo_scene.hpp"
 
 namespace {
 
@@ -17,43 +16,21 @@ namespace {
 // 20 "spread" points cover the view on a 5 x 4 grid and are seen from the second frame on, so
 // every clustered landmark outranks every spread one (more observations).
 struct Scene {
-  ums::Window window{ums::PreintegrationOptions()};
+  ums::test::StereoScene stereo;
   ums::LandmarkMap map{ums::LandmarkMapOptions()};
-  std::unique_ptr<ums::FrameFeatures> ff = std::make_unique<ums::FrameFeatures>();
   std::vector<Eigen::Vector3d> points;  // id i + 1 is points[i]
 
   Scene() {
-    Eigen::Isometry3d T_b_c1 = Eigen::Isometry3d::Identity();
-    T_b_c1.translation().x() = 0.11;
-    window.extrinsics().set(Eigen::Isometry3d::Identity(), T_b_c1);
     for (int i = 0; i < kClustered; ++i) {
       points.emplace_back(4.0 * (-0.45 + 0.004 * (i % 10)), 4.0 * (-0.30 + 0.004 * (i / 10)), 4.0);
     }
     for (int i = 0; i < kSpread; ++i) {
       points.emplace_back(4.0 * (-0.5 + 0.25 * (i % 5)), 4.0 * (-0.3 + 0.2 * (i / 5)), 4.0);
     }
-    add_frame(0.0, kClustered);
-    add_frame(0.1, kClustered + kSpread);
-    add_frame(0.2, kClustered + kSpread);
-    map.triangulate_all(window, -1);
-  }
-  void add_frame(double x_m, int n) {
-    ums::WindowFrame& f = window.next();
-    ums::state::p(f.pose) = Eigen::Vector3d(x_m, 0, 0);
-    window.push_next();
-    const int slot = window.slot_of(f);
-    window.choose_next_slot();
-    ff->features.clear();
-    for (int i = 0; i < n; ++i) {
-      ums::FeatureObservation o;
-      o.id = static_cast<std::uint32_t>(i + 1);
-      o.cls = ums::FeatureClass::k3D;
-      const Eigen::Vector3d p0 = points[static_cast<std::size_t>(i)] - Eigen::Vector3d(x_m, 0, 0);
-      o.bearing_left = p0.normalized().cast<float>();
-      o.bearing_right = (p0 - Eigen::Vector3d(0.11, 0, 0)).normalized().cast<float>();
-      ff->features.push_back(o);
-    }
-    REQUIRE(map.ingest(*ff, slot, Eigen::Matrix3d::Identity()) == 0);
+    REQUIRE(stereo.add_frame(0.0, points.data(), kClustered, true, &map) >= 0);
+    REQUIRE(stereo.add_frame(0.1, points.data(), kClustered + kSpread, true, &map) >= 0);
+    REQUIRE(stereo.add_frame(0.2, points.data(), kClustered + kSpread, true, &map) >= 0);
+    map.triangulate_all(stereo.window, -1);
   }
   // How many of the chosen landmarks are spread ones.
   int spread_chosen(const ums::SelectionPolicy& policy) const {
