@@ -1,6 +1,7 @@
 #include "core/estimator/estimator.hpp"
 
 #include <cmath>
+#include <limits>
 #include <memory>
 
 #include <catch2/catch.hpp>
@@ -133,12 +134,16 @@ TEST_CASE("estimator on the real EuRoC micro sequence at rest: initializes withi
 TEST_CASE("estimator: skipping the stage comparison for a few 2D-left landmarks keeps every pose", "[estimator]") {
   // The comparison restores the window and solves 3D + 2D-left from the same start when the two
   // stages agree, so skipping it gives the same poses to the bit wherever it would have agreed.
+  // Round 2 without its wall-time bound, as replay --deterministic runs it: under qemu the bound
+  // cuts it at different iterations in two runs.
   ums::EstimatorOptions always;
+  always.round2_time_s = std::numeric_limits<double>::infinity();
   always.stage_min_2d_left = 0;  // the paper: compare whenever a 2D-left landmark exists
   const MicroRun paper = run_micro(always);
   REQUIRE(paper.stats.stage_kept_2d_left > 0);
   REQUIRE(paper.stats.stage_added_2d_right == 0);
   ums::EstimatorOptions o;
+  o.round2_time_s = std::numeric_limits<double>::infinity();
   o.stage_min_2d_left = 1000;
   const MicroRun skipped = run_micro(o);
   CHECK(skipped.stats.stage_kept_2d_left == 0);
