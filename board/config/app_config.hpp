@@ -26,7 +26,6 @@ struct AppConfig {
   int detect_min_missing = 1;           // features missing before a new detection (ours; <= max_cnt)
   // Keyframes
   double keyframe_parallax_px = 10.0;   // px at a 460 px focal length (VINS keyframe_parallax)
-  bool keyframe_derotate = false;       // experiment
   // Back end
   double max_solver_time_s = 0.04;      // s, wall-time bound of one window solve (VINS max_solver_time)
   int max_num_iterations = 8;           // solver iterations per window solve (VINS max_num_iterations)
@@ -39,7 +38,6 @@ struct AppConfig {
   double beta_3d = 1.0;                 // 1, paper eq. (5) beta1: weight of 3D landmarks' residuals
   double beta_2d = 1.0;                 // 1, paper eq. (5) beta2: weight of 2D landmarks' residuals
   double min_stereo_disparity_px = 0.0; // px, a stereo match with less disparity counts as 2D
-  double select_near_m = 0.0;           // experiment
   double landmark_spread_px = 0.0;      // px, cells over which a solve's landmarks are spread (0: off)
   int stage_min_2d_left = 10;           // 2D-left landmarks below which the stage comparison is skipped
   double feature_sigma_px = 1.5;        // px, feature noise that whitens the visual residuals

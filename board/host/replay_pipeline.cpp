@@ -23,7 +23,6 @@ FrontendOptions frontend_options_from(const AppConfig& config) {
 EstimatorOptions estimator_options_from(const AppConfig& config, const ReplayPipelineOptions& pipeline) {
   EstimatorOptions o;
   o.keyframe.min_parallax_px = static_cast<float>(config.keyframe_parallax_px);
-  o.keyframe.rotation_compensated = config.keyframe_derotate;
   o.focal_px = config.rig.cam[0].fx > 0.0 ? config.rig.cam[0].fx : o.focal_px;
   o.keyframe.focal_px = static_cast<float>(o.focal_px);
   o.estimate_extrinsic = config.estimate_extrinsic;
@@ -38,7 +37,6 @@ EstimatorOptions estimator_options_from(const AppConfig& config, const ReplayPip
   o.min_stereo_disparity_px = config.min_stereo_disparity_px;
   o.sigma_px = config.feature_sigma_px;
   o.landmark_spread_px = config.landmark_spread_px;
-  o.select_near_m = config.select_near_m;
   o.stage_min_2d_left = config.stage_min_2d_left;
   o.huber_px = config.huber_px;
   o.outlier_px = config.outlier_px;

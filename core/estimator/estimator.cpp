@@ -46,7 +46,6 @@ ProblemBuilderOptions builder_options(const EstimatorOptions& o) {
   b.selection.budget = o.max_landmarks_in_solve;
   b.selection.share_2d = o.share_2d;
   b.selection.spread_cell_tan = o.landmark_spread_px / o.focal_px;
-  b.selection.near_m = o.select_near_m;
   b.still_sigma_m = o.still_sigma_m;
   b.still_sigma_rad = o.still_sigma_rad;
   b.still_sigma_v = o.still_sigma_v;
@@ -233,15 +232,7 @@ void Estimator::observe(const FrameFeatures& ff, WindowFrame& f, const Standstil
   if (f.still) ++stats_.still_frames;
   int n2d = 0;
   landmarks_->count_depth_observations(slot, &n2d);
-  CameraAttitudes att;
-  const bool attitudes_known = mode_ == EstimatorMode::kVio && f.imu_ok;
-  if (attitudes_known) {
-    const Eigen::Matrix3d R_w_b = nav_from_blocks(f.pose, f.sb).q_w_b.toRotationMatrix();
-    const Extrinsics& e = window_->extrinsics();
-    att.R_w_c0 = (R_w_b * e.T_b_c(0).linear()).cast<float>();
-    att.R_w_c1 = (R_w_b * e.T_b_c(1).linear()).cast<float>();
-  }
-  f.keyframe = keyframes_.update(ff, n2d, attitudes_known ? &att : nullptr).is_keyframe;
+  f.keyframe = keyframes_.update(ff, n2d).is_keyframe;
 }
 
 void Estimator::run_mode(WindowFrame& f, EstimatorTiming* timing) {

@@ -32,7 +32,6 @@ struct EstimatorOptions {
   int max_landmarks_in_solve = 150;       // landmarks per solve, best first (paper: best 100-300)
   double min_depth_m = 0.1;               // m, landmarks closer are rejected
   double max_depth_m = 60.0;              // m, landmarks farther are not used (no parallax)
-  double select_near_m = 0.0;             // experiment
   double landmark_spread_px = 0.0;        // px at focal_px: > 0 spreads the landmarks of a solve
                                           // over the view in cells of this size (landmark_selection.hpp)
   double min_stereo_disparity_px = 0.0;   // px at focal_px: a stereo match with less disparity

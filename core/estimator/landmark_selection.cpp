@@ -43,12 +43,9 @@ int direction_cell(const Landmark& l, double cell_tan) {
 // size, each direction cell's best before any cell's second best (score, then pool index,
 // breaks ties: the same set on every machine).
 void order_group(const LandmarkMap& map, const SelectionPolicy& policy, int* begin, int* end, int take) {
-  const double near_inv_m = policy.near_m > 0.0 ? 1.0 / policy.near_m : 0.0;
-  auto score = [&map, near_inv_m](int idx) {
+  auto score = [&map](int idx) {
     const Landmark& l = map.at_pool(idx);
-    const double track = static_cast<double>(std::min<std::uint32_t>(l.track_length, 999));
-    const double obs = near_inv_m > 0.0 ? l.n_obs * std::min(1.0, l.inv_depth / near_inv_m) : l.n_obs;
-    return 1000.0 * obs + track;
+    return 1000 * l.n_obs + static_cast<int>(std::min<std::uint32_t>(l.track_length, 999));
   };
   const int n = static_cast<int>(end - begin);
   if (!(policy.spread_cell_tan > 0.0) || take >= n) {

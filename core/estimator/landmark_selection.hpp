@@ -20,7 +20,6 @@ struct SelectionPolicy {
   double spread_cell_tan = 0.0;  // > 0: every viewing-direction cell of this size (tangent plane
                                  // of the camera, px / focal px) gives its best landmark before any
                                  // cell gives its second; 0: best first, wherever they are
-  double near_m = 0.0;  // experiment: farther landmarks count observations * near_m / distance
 };
 
 bool is_candidate(const Landmark& l, std::uint8_t groups);

@@ -19,18 +19,8 @@ void KeyframeOptions::validate() const {
 
 KeyframeSelector::KeyframeSelector(const KeyframeOptions& options) : options_(options) { options_.validate(); }
 
-bool KeyframeSelector::derotation(const CameraAttitudes* attitudes, Eigen::Matrix3f R_kf_cur[2]) const {
-  if (!options_.rotation_compensated || attitudes == nullptr || !has_attitudes_) return false;
-  R_kf_cur[0] = attitudes_.R_w_c0.transpose() * attitudes->R_w_c0;
-  R_kf_cur[1] = attitudes_.R_w_c1.transpose() * attitudes->R_w_c1;
-  return true;
-}
-
-KeyframeDecision KeyframeSelector::update(const FrameFeatures& frame, int n_2d_with_depth,
-                                          const CameraAttitudes* attitudes) {
+KeyframeDecision KeyframeSelector::update(const FrameFeatures& frame, int n_2d_with_depth) {
   KeyframeDecision d;
-  Eigen::Matrix3f R_kf_cur[2];
-  const bool derotate = derotation(attitudes, R_kf_cur);
   if (!has_keyframe_) {
     d.reasons |= kKeyframeFirst;
   } else {
@@ -45,13 +35,7 @@ KeyframeDecision KeyframeSelector::update(const FrameFeatures& frame, int n_2d_w
       if (e == hi || e->id != o.id) continue;
       // A feature that switched camera (cannot happen today) would compare different images.
       if (o.has_left() != (e->cls != FeatureClass::k2DRight)) continue;
-      Eigen::Vector2f xy = reference_xy(o);
-      if (derotate) {
-        const Eigen::Vector3f b = R_kf_cur[o.has_left() ? 0 : 1] * Eigen::Vector3f(xy.x(), xy.y(), 1.0f);
-        if (!(b.z() > 1e-3f)) continue;
-        xy = b.head<2>() / b.z();
-      }
-      sum += static_cast<double>((xy - e->xy).norm());
+      sum += static_cast<double>((reference_xy(o) - e->xy).norm());
       ++shared;
     }
     d.shared_features = shared;
@@ -64,8 +48,6 @@ KeyframeDecision KeyframeSelector::update(const FrameFeatures& frame, int n_2d_w
   if (d.is_keyframe) {
     has_keyframe_ = true;
     last_t_ns_ = frame.t_ns;
-    has_attitudes_ = attitudes != nullptr;
-    if (has_attitudes_) attitudes_ = *attitudes;
     n_entries_ = 0;
     for (const FeatureObservation& o : frame.features) {
       if (n_entries_ == capacity::kMaxFeaturesPerCamera) break;

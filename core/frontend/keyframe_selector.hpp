@@ -26,7 +26,6 @@ struct KeyframeOptions {
   float focal_px = 460.0f;         // px, virtual focal length of the parallax measure
   int min_depth_features = 40;     // features, 3D + 2D-with-depth below this -> keyframe
   int min_shared_features = 20;    // features shared with the last keyframe below this -> keyframe
-  bool rotation_compensated = false;  // experiment: parallax after removing the rotation
 
   void validate() const;  // throws std::invalid_argument naming the field and value
 };
@@ -48,12 +47,6 @@ struct KeyframeDecision {
   double since_last_s = 0.0;             // s
 };
 
-// World-from-camera rotations of the left (c0) and right (c1) camera at a frame.
-struct CameraAttitudes {
-  Eigen::Matrix3f R_w_c0;
-  Eigen::Matrix3f R_w_c1;
-};
-
 class KeyframeSelector {
  public:
   explicit KeyframeSelector(const KeyframeOptions& options);
@@ -61,7 +54,7 @@ class KeyframeSelector {
   // Decides for this frame; when it is a keyframe, it becomes the reference for later frames.
   // n_2d_with_depth: 2D features whose depth the estimator has initialized from 3D features.
   // Allocates nothing.
-  KeyframeDecision update(const FrameFeatures& frame, int n_2d_with_depth, const CameraAttitudes* attitudes = nullptr);
+  KeyframeDecision update(const FrameFeatures& frame, int n_2d_with_depth);
 
   void reset() { has_keyframe_ = false; }
   bool has_keyframe() const { return has_keyframe_; }
@@ -73,13 +66,10 @@ class KeyframeSelector {
     Eigen::Vector2f xy;  // normalized point in the camera that observes the feature (left if any)
   };
   static Eigen::Vector2f reference_xy(const FeatureObservation& o) { return o.has_left() ? o.xy_left : o.xy_right; }
-  bool derotation(const CameraAttitudes* attitudes, Eigen::Matrix3f R_kf_cur[2]) const;
 
   KeyframeOptions options_;
   bool has_keyframe_ = false;
   std::int64_t last_t_ns_ = 0;
-  bool has_attitudes_ = false;
-  CameraAttitudes attitudes_{};
   Entry entries_[capacity::kMaxFeaturesPerCamera];
   std::size_t n_entries_ = 0;
 };
