@@ -150,7 +150,9 @@ bool Estimator::solve_stages(WindowFrame& f, SolveSpec* spec) {
 // Window upkeep
 
 void Estimator::remove_frame(int pos) {
-  landmarks_->remove_frame(window_->slot_at(pos), *window_);
+  // Without the IMU nothing but vision holds the window: keep the points (landmark_map.hpp).
+  const Rehost how = mode_ == EstimatorMode::kVio ? Rehost::kMeasuredRay : Rehost::kKeepPoint;
+  landmarks_->remove_frame(window_->slot_at(pos), *window_, how);
   window_->erase(pos);
 }
 

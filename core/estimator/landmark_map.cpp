@@ -83,18 +83,19 @@ Eigen::Vector3d LandmarkMap::point_w(const Landmark& l, const Window& window) co
   return window.T_w_b(l.host_slot) * (window.extrinsics().T_b_c(l.host_cam) * (l.b_host / l.inv_depth));
 }
 
-void LandmarkMap::rehost(Landmark& l, const Window& window) const {
+void LandmarkMap::rehost(Landmark& l, const Window& window, Rehost how) const {
   // The host frame leaves the window: move the depth to the earliest remaining observation.
   if (l.n_obs == 0) return;
   const LandmarkObservation& first = l.obs[0];
   const int new_cam = first.has_left ? 0 : 1;
-  const Eigen::Vector3d b_new = (new_cam == 0 ? first.bearing_left : first.bearing_right).cast<double>().normalized();
+  Eigen::Vector3d b_new = (new_cam == 0 ? first.bearing_left : first.bearing_right).cast<double>().normalized();
   if (l.has_depth) {
     const Eigen::Vector3d P_w = point_w(l, window);
     const Eigen::Vector3d P_c = (window.T_w_b(first.slot) * window.extrinsics().T_b_c(new_cam)).inverse() * P_w;
     const double d = P_c.norm();
     if (P_c.dot(b_new) > 0.0 && d > options_.min_depth_m && d < options_.max_depth_m) {
       l.inv_depth = 1.0 / d;
+      if (how == Rehost::kKeepPoint) b_new = P_c / d;
     } else {
       l.has_depth = false;
     }
@@ -104,7 +105,7 @@ void LandmarkMap::rehost(Landmark& l, const Window& window) const {
   l.b_host = b_new;
 }
 
-void LandmarkMap::remove_frame(int slot, const Window& window) {
+void LandmarkMap::remove_frame(int slot, const Window& window, Rehost how) {
   for (int k = 0; k < n_; ++k) {
     Landmark& l = (*this)[k];
     const int o = l.find_obs(slot);
@@ -112,7 +113,7 @@ void LandmarkMap::remove_frame(int slot, const Window& window) {
     const bool was_host = l.host_slot == slot;
     for (int j = o; j + 1 < l.n_obs; ++j) l.obs[j] = l.obs[j + 1];
     --l.n_obs;
-    if (was_host) rehost(l, window);
+    if (was_host) rehost(l, window, how);
   }
   compact();
 }

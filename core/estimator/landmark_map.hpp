@@ -19,6 +19,19 @@ namespace ums {
 
 class Window;
 
+// Where a landmark goes when its host frame leaves the window and its next observation hosts it.
+// The inverse-depth parametrization fixes the direction from the host, so the choice decides what
+// the landmark keeps:
+//  - kMeasuredRay (VINS-Fusion): the next observation's measured bearing at the same distance. The
+//    point moves by that frame's pose error and bearing noise; the map inherits them. Right when
+//    that frame's pose is held by the IMU and the prior (VIO): the measured ray is information the
+//    1-DOF landmark would otherwise lose.
+//  - kKeepPoint: the same world point, its direction from the new host as the anchor. Right when
+//    nothing but vision holds the window (VO, whose oldest pose is the gauge): moving every point
+//    onto the new host's rays at each keyframe makes the map drift with that frame's error.
+// docs/results.md ("Rehosting") has the measurements behind the choice.
+enum class Rehost : std::uint8_t { kMeasuredRay, kKeepPoint };
+
 struct LandmarkMapOptions {
   double min_depth_m = 0.1;                 // m
   double max_depth_m = 60.0;                // m
@@ -52,7 +65,7 @@ class LandmarkMap {
   // R_c0_c1 (right camera to left) measures a stereo match's parallax.
   int ingest(const FrameFeatures& ff, int slot, const Eigen::Matrix3d& R_c0_c1);
   // Removes the observations of a window frame, rehosting the landmarks it hosted, then compacts.
-  void remove_frame(int slot, const Window& window);
+  void remove_frame(int slot, const Window& window, Rehost rehost);
   void clear_observations();  // every landmark leaves (then compacts)
   void compact();             // drops landmarks without observations or marked outliers
 
@@ -71,7 +84,7 @@ class LandmarkMap {
  private:
   bool too_far_for_stereo(const FeatureObservation& o, const Eigen::Matrix3d& R_c0_c1) const;
   int create(std::uint32_t id);
-  void rehost(Landmark& l, const Window& window) const;
+  void rehost(Landmark& l, const Window& window, Rehost how) const;
 
   LandmarkMapOptions options_;
   std::unique_ptr<Pool<Landmark, capacity::kMaxLandmarks>> pool_;

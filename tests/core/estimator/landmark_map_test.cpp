@@ -1,5 +1,8 @@
 #include "core/estimator/landmark_map.hpp"
 
+#include <algorithm>
+#include <cmath>
+
 #include <catch2/catch.hpp>
 #include <memory>
 
@@ -33,7 +36,7 @@ TEST_CASE("LandmarkMap: triangulated points survive the host leaving (rehost), t
   }
   Eigen::Vector3d before[20];
   for (int k = 0; k < map.size(); ++k) before[k] = map.point_w(map[k], s.window);
-  map.remove_frame(s0, s.window);
+  map.remove_frame(s0, s.window, ums::Rehost::kMeasuredRay);
   s.window.erase(0);
   REQUIRE(map.size() == 20);
   for (int k = 0; k < map.size(); ++k) {
@@ -43,8 +46,44 @@ TEST_CASE("LandmarkMap: triangulated points survive the host leaving (rehost), t
     CHECK((map.point_w(map[k], s.window) - before[k]).norm() < 1e-6);
   }
   // The last observation leaves: the landmarks leave the map and the pool is free again.
-  map.remove_frame(s1, s.window);
+  map.remove_frame(s1, s.window, ums::Rehost::kMeasuredRay);
   CHECK(map.size() == 0);
+}
+
+// The new host's pose estimate is off by 0.5 deg of yaw: anchoring on its measured rays moves every
+// point by that angle times its distance from the turn axis (4-8 m: 35-70 mm); keeping the point
+// moves none.
+TEST_CASE("LandmarkMap: rehosting on the measured ray inherits the new host's pose error, keeping the point does not",
+          "[estimator][landmarks]") {
+  for (const ums::Rehost how : {ums::Rehost::kMeasuredRay, ums::Rehost::kKeepPoint}) {
+    Scene s;
+    ums::LandmarkMap map{ums::LandmarkMapOptions()};
+    Eigen::Vector3d p[20];
+    for (int i = 0; i < 20; ++i) p[i] = point(i);
+    const int s0 = s.add_frame(0.0, p, 20, true, &map);
+    const int s1 = s.add_frame(0.2, p, 20, true, &map);
+    REQUIRE((s0 >= 0 && s1 >= 0));
+    map.triangulate_all(s.window, -1);
+    Eigen::Vector3d before[20];
+    for (int k = 0; k < map.size(); ++k) before[k] = map.point_w(map[k], s.window);
+    const Eigen::Quaterniond dq(Eigen::AngleAxisd(0.5 * M_PI / 180.0, Eigen::Vector3d::UnitY()));
+    Eigen::Map<Eigen::Quaterniond> q1(s.window.slot(s1).pose + 3);
+    q1 = (q1 * dq).normalized();
+    map.remove_frame(s0, s.window, how);
+    s.window.erase(0);
+    REQUIRE(map.size() == 20);
+    double min_moved_m = 1e9, max_moved_m = 0.0;
+    for (int k = 0; k < map.size(); ++k) {
+      const double moved_m = (map.point_w(map[k], s.window) - before[k]).norm();
+      const Eigen::Vector3d P = before[k] - Eigen::Vector3d(0.2, 0, 0);  // from the new host
+      const double expected_m = std::hypot(P.x(), P.z()) * 0.5 * M_PI / 180.0;  // turned about y
+      if (how == ums::Rehost::kMeasuredRay) CHECK(moved_m == Approx(expected_m).epsilon(0.05));
+      min_moved_m = std::min(min_moved_m, moved_m);
+      max_moved_m = std::max(max_moved_m, moved_m);
+    }
+    if (how == ums::Rehost::kMeasuredRay) CHECK(min_moved_m > 0.03);
+    if (how == ums::Rehost::kKeepPoint) CHECK(max_moved_m < 1e-9);
+  }
 }
 
 TEST_CASE("LandmarkMap: a full pool refuses new features and counts them; freed slots are reused", "[estimator][landmarks]") {
