@@ -16,15 +16,21 @@ using Scene = ums::test::StereoScene;
 
 Eigen::Vector3d point(int i) { return Eigen::Vector3d(-1.0 + 0.1 * i, 0.5 - 0.05 * i, 4.0 + 0.2 * i); }
 
+// Two stereo frames 0.2 m apart seeing the 20 points p (filled in); their slots in *s0, *s1.
+void two_frames(Scene* s, ums::LandmarkMap* map, Eigen::Vector3d* p, int* s0, int* s1) {
+  for (int i = 0; i < 20; ++i) p[i] = point(i);
+  *s0 = s->add_frame(0.0, p, 20, true, map);
+  *s1 = s->add_frame(0.2, p, 20, true, map);
+}
+
 }  // namespace
 
 TEST_CASE("LandmarkMap: triangulated points survive the host leaving (rehost), to float rounding", "[estimator][landmarks]") {
   Scene s;
   ums::LandmarkMap map{ums::LandmarkMapOptions()};
   Eigen::Vector3d p[20];
-  for (int i = 0; i < 20; ++i) p[i] = point(i);
-  const int s0 = s.add_frame(0.0, p, 20, true, &map);
-  const int s1 = s.add_frame(0.2, p, 20, true, &map);
+  int s0 = -1, s1 = -1;
+  two_frames(&s, &map, p, &s0, &s1);
   REQUIRE(s0 >= 0);
   REQUIRE(s1 >= 0);
   REQUIRE(map.size() == 20);
@@ -59,9 +65,8 @@ TEST_CASE("LandmarkMap: rehosting on the measured ray inherits the new host's po
     Scene s;
     ums::LandmarkMap map{ums::LandmarkMapOptions()};
     Eigen::Vector3d p[20];
-    for (int i = 0; i < 20; ++i) p[i] = point(i);
-    const int s0 = s.add_frame(0.0, p, 20, true, &map);
-    const int s1 = s.add_frame(0.2, p, 20, true, &map);
+    int s0 = -1, s1 = -1;
+    two_frames(&s, &map, p, &s0, &s1);
     REQUIRE((s0 >= 0 && s1 >= 0));
     map.triangulate_all(s.window, -1);
     Eigen::Vector3d before[20];
