@@ -130,6 +130,7 @@ class Estimator {
   ModeEvent frame_imu_only(WindowFrame& f);
   ModeEvent frame_vo(WindowFrame& f);
   void frame_vio(WindowFrame& f, EstimatorTiming* timing);
+  void hold_gauge(const Eigen::Isometry3d& T_w_b0_before);
   bool solve_stages(WindowFrame& f, SolveSpec* spec);
   void second_round(const SolveSpec& spec, bool converged);
   void apply(ModeEvent event);

@@ -86,7 +86,26 @@ void Estimator::second_round(const SolveSpec& spec, bool converged) {
   }
 }
 
+// VIO cannot see a rotation about gravity or a translation of the whole window: only the prior's
+// linearization holds them, weakly. After the solves the window is moved back so that its oldest
+// frame keeps the position and the heading it had (VINS-Mono does the same), which costs vision
+// and the IMU nothing. The yaw is taken from the small rotation between the oldest frame's
+// attitudes without atan2 (the host and aarch64 builds must agree bit for bit).
+void Estimator::hold_gauge(const Eigen::Isometry3d& T_w_b0_before) {
+  const Eigen::Isometry3d T_w_b0 = window_->T_w_b(window_->slot_at(0));
+  const Eigen::Matrix3d R_d = T_w_b0_before.linear() * T_w_b0.linear().transpose();
+  const Eigen::Vector2d cs(R_d(0, 0), R_d(1, 0));
+  const double n = cs.norm();
+  if (!(n > 1e-6)) return;  // the oldest frame turned about a horizontal axis by 90 deg: no yaw
+  Eigen::Matrix3d R_z = Eigen::Matrix3d::Identity();
+  R_z(0, 0) = R_z(1, 1) = cs.x() / n;
+  R_z(1, 0) = cs.y() / n;
+  R_z(0, 1) = -cs.y() / n;
+  window_->move(R_z, T_w_b0.translation(), T_w_b0_before.translation());
+}
+
 void Estimator::frame_vio(WindowFrame& f, EstimatorTiming* timing) {
+  const Eigen::Isometry3d T_w_b0_before = window_->T_w_b(window_->slot_at(0));
   landmarks_->triangulate_all(*window_, window_->slot_of(f));
   window_->update_imu_factors(g_w_);
   const auto t1 = std::chrono::steady_clock::now();
@@ -98,6 +117,7 @@ void Estimator::frame_vio(WindowFrame& f, EstimatorTiming* timing) {
   const auto t2 = std::chrono::steady_clock::now();
   second_round(spec, converged);
   timing->solve_round2_ms = static_cast<float>(ms_since(t2));
+  hold_gauge(T_w_b0_before);
 }
 
 bool Estimator::solve_stages(WindowFrame& f, SolveSpec* spec) {

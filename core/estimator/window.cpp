@@ -41,12 +41,12 @@ void Window::choose_next_slot() {
   next_slot_ = free_slot;
 }
 
-void Window::rotate(const Eigen::Matrix3d& R, const Eigen::Vector3d& pivot) {
+void Window::move(const Eigen::Matrix3d& R, const Eigen::Vector3d& from, const Eigen::Vector3d& to) {
   const Eigen::Quaterniond q(R);
   for (int k = 0; k < n_; ++k) {
     WindowFrame& f = at(k);
     state::Vec3 p = state::p(f.pose);
-    p = pivot + R * (p - pivot);
+    p = to + R * (p - from);
     set_quat(f.pose, q * quat_of(f.pose));
     state::Vec3 v = state::v(f.sb);
     v = R * v;

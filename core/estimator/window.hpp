@@ -64,7 +64,9 @@ class Window {
 
   // Rotates the window's poses and velocities about `pivot` (the initialization levels the VO
   // frame to gravity; loop closure moves T_w_odom instead, never the window).
-  void rotate(const Eigen::Matrix3d& R, const Eigen::Vector3d& pivot);
+  void rotate(const Eigen::Matrix3d& R, const Eigen::Vector3d& pivot) { move(R, pivot, pivot); }
+  // Moves the window rigidly: p -> to + R (p - from), attitudes and velocities turned by R.
+  void move(const Eigen::Matrix3d& R, const Eigen::Vector3d& from, const Eigen::Vector3d& to);
   // IMU factors at the current biases (re-integrating intervals whose biases moved far).
   void update_imu_factors(const Eigen::Vector3d& g_w);
 
