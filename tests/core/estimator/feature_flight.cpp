@@ -12,17 +12,16 @@
 namespace ums::test {
 namespace {
 
-// Points scattered uniformly over the six faces of a room around the path (walls margin_m beyond
-// its bounding box, floor and ceiling 1.5 m).
+// Points scattered uniformly over the six faces of the procedural renderer's room around the path
+// (its walls wall_margin_m beyond the path's bounding box, its floor and ceiling margins).
 std::vector<Eigen::Vector3d> room_points(const sim::SimTrajectory& tr, double margin_m, int n, std::mt19937_64& rng) {
-  Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e9), hi = Eigen::Vector3d::Constant(-1e9);
-  for (std::int64_t t = tr.t_begin_ns; t <= tr.t_end_ns; t += 50'000'000) {
-    const Eigen::Vector3d p = tr.T_w_b(t).translation();
-    lo = lo.cwiseMin(p);
-    hi = hi.cwiseMax(p);
-  }
-  lo -= Eigen::Vector3d(margin_m, margin_m, 1.5);
-  hi += Eigen::Vector3d(margin_m, margin_m, 1.5);
+  std::vector<Eigen::Vector3d> path_w;
+  for (std::int64_t t = tr.t_begin_ns; t <= tr.t_end_ns; t += 50'000'000) path_w.push_back(tr.T_w_b(t).translation());
+  sim::WorldOptions wo;
+  wo.margin_xy_m = margin_m;
+  wo.texture_size = 64;  // only the room's size is used
+  const sim::World world = sim::make_world(path_w, wo);
+  const Eigen::Vector3d lo = world.room_lo.cast<double>(), hi = world.room_hi.cast<double>();
   const Eigen::Vector3d size = hi - lo;
   const double area[3] = {size.y() * size.z(), size.x() * size.z(), size.x() * size.y()};
   std::uniform_real_distribution<double> u(0.0, 1.0);

@@ -16,6 +16,15 @@ ums::FrameId push(ums::Window* w, std::int64_t t_ns) {
   return f.id;
 }
 
+// Frames at (1, 2, 3) and (4, 5, 6), the second moving at (1, 0, 0) m/s.
+void two_frames(ums::Window* w) {
+  push(w, 1);
+  push(w, 2);
+  ums::state::p(w->at(0).pose) = Eigen::Vector3d(1, 2, 3);
+  ums::state::p(w->at(1).pose) = Eigen::Vector3d(4, 5, 6);
+  ums::state::v(w->at(1).sb) = Eigen::Vector3d(1, 0, 0);
+}
+
 }  // namespace
 
 TEST_CASE("Window: FrameIds are monotonic and never reused while slots are recycled", "[estimator][window]") {
@@ -50,19 +59,29 @@ TEST_CASE("Window: FrameIds are monotonic and never reused while slots are recyc
 
 TEST_CASE("Window: rotation about a pivot keeps the pivot and rotates poses and velocities", "[estimator][window]") {
   ums::Window w{ums::PreintegrationOptions()};
-  push(&w, 1);
-  push(&w, 2);
+  two_frames(&w);
   ums::WindowFrame& a = w.at(0);
   ums::WindowFrame& b = w.at(1);
-  ums::state::p(a.pose) = Eigen::Vector3d(1, 2, 3);
-  ums::state::p(b.pose) = Eigen::Vector3d(4, 5, 6);
-  ums::state::v(b.sb) = Eigen::Vector3d(1, 0, 0);
   const Eigen::Matrix3d R = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   w.rotate(R, ums::state::p(b.pose));
   CHECK((ums::state::p(b.pose) - Eigen::Vector3d(4, 5, 6)).norm() < 1e-12);
   CHECK((ums::state::p(a.pose) - Eigen::Vector3d(7, 2, 3)).norm() < 1e-12);   // (-3,-3) turned by 90 deg about b
   CHECK((ums::state::v(b.sb) - Eigen::Vector3d(0, 1, 0)).norm() < 1e-12);
   CHECK(ums::quat_of(a.pose).angularDistance(Eigen::Quaterniond(R)) < 1e-12);
+}
+
+// The gauge hold moves the window so that one point (the oldest frame) lands where it was.
+TEST_CASE("Window: a rigid move takes `from` to `to` and turns the rest about it", "[estimator][window]") {
+  ums::Window w{ums::PreintegrationOptions()};
+  two_frames(&w);
+  ums::WindowFrame& a = w.at(0);
+  ums::WindowFrame& b = w.at(1);
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  w.move(R, Eigen::Vector3d(1, 2, 3), Eigen::Vector3d(0, 0, 0));
+  CHECK(ums::state::p(a.pose).norm() < 1e-12);
+  CHECK((ums::state::p(b.pose) - Eigen::Vector3d(-3, 3, 3)).norm() < 1e-12);  // (3,3,3) turned by 90 deg
+  CHECK((ums::state::v(b.sb) - Eigen::Vector3d(0, 1, 0)).norm() < 1e-12);
+  CHECK(ums::quat_of(b.pose).angularDistance(Eigen::Quaterniond(R)) < 1e-12);
 }
 
 TEST_CASE("Extrinsics: fixed keeps the calibration bit for bit, floating follows the blocks", "[estimator][window]") {
