@@ -279,6 +279,7 @@ void Estimator::write_output(const FrameFeatures& ff, const WindowFrame& f, Esti
   o.ba = last_odom_.ba;
   o.bg = last_odom_.bg;
   o.still = f.still;
+  o.reset_counter = static_cast<std::uint32_t>(stats_.resets + stats_.relevels) + odom_.resets();
   const bool solved = mode_ != EstimatorMode::kImuOnly;
   o.landmarks_in_solve = solved ? builder_->num_selected() : 0;
   o.n_3d_used = o.n_2d_left_used = o.n_2d_right_used = 0;
@@ -322,6 +323,7 @@ void Estimator::apply(ModeEvent event) {
   c.reason = t.reason;
   if (stats_.mode_changes.push_back(c) != Status::kOk) ++stats_.mode_changes_dropped;
   mode_ = t.to;
+  if (t.to == EstimatorMode::kVio) ++stats_.relevels;
   if (t.to == EstimatorMode::kVio && !stats_.initialized) {
     stats_.initialized = true;
     stats_.init_t_ns = c.t_ns;

@@ -72,6 +72,10 @@ struct EstimatorOutput {
   int landmarks_in_solve = 0;
   int n_3d_used = 0, n_2d_left_used = 0, n_2d_right_used = 0;  // landmarks of each class solved
   bool still = false;                // the IMU said: at rest
+  // Output discontinuities so far: restarts (divergence, vision lost), re-levelling of the world
+  // (entering VIO) and moves of the odometry frame. A consumer that fuses the pose (a flight
+  // controller: MAVLink reset_counter) resets its reference when this changes.
+  std::uint32_t reset_counter = 0;
 };
 
 // Wall time of the back-end stages of one frame (ms).

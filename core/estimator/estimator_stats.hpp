@@ -44,6 +44,7 @@ struct EstimatorStats {
   std::uint64_t still_frames = 0;
   std::uint64_t still_rejected_by_vision = 0;  // IMU at rest but the images moved (uniform motion)
   std::uint64_t resets = 0;             // divergence or visual loss in VO
+  std::uint64_t relevels = 0;           // VIO entered: the window re-levelled to gravity
   double sum_landmarks_in_solve = 0.0;
   double sum_2d_in_solve = 0.0;         // 2D-left + 2D-right landmarks in the final solves
   std::uint64_t frames_solved = 0;
