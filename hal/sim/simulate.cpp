@@ -140,6 +140,7 @@ const char* scenario_name(Scenario s) {
     case Scenario::kTextureless: return "textureless";
     case Scenario::kImpulses: return "impulses";
     case Scenario::kRightDropout: return "right-dropout";
+    case Scenario::kBlackout: return "blackout";
   }
   return "?";
 }
@@ -444,6 +445,10 @@ void write_events(const SimOptions& o, const SimTrajectory& tr, const ImuTrack& 
     const auto mid_ns = tr.t_begin_ns + static_cast<std::int64_t>(mid_s * 1e9);
     ev << mid_ns - 2'000'000'000LL << ",right_dropout_begin\n" << mid_ns + 2'000'000'000LL << ",right_dropout_end\n";
   }
+  if (o.scenario == Scenario::kBlackout) {
+    const auto mid_ns = tr.t_begin_ns + static_cast<std::int64_t>(mid_s * 1e9);
+    ev << mid_ns - 1'000'000'000LL << ",blackout_begin\n" << mid_ns + 1'000'000'000LL << ",blackout_end\n";
+  }
   ev << tr.t_end_ns << ",end\n";
   if (!ev) throw std::runtime_error(o.out_dir + "/sim_events.csv: write failed");
 }
@@ -495,6 +500,10 @@ int simulate(const SimOptions& o, std::string* error, const ProgressCallback& pr
         std::fill(right.begin(), right.end(), 0);
       }
       if (o.scenario == Scenario::kRightDropout && ts >= mid_s - 2.0 && ts < mid_s + 2.0) {
+        std::fill(right.begin(), right.end(), 0);
+      }
+      if (o.scenario == Scenario::kBlackout && ts >= mid_s - 1.0 && ts < mid_s + 1.0) {
+        std::fill(left.begin(), left.end(), 0);
         std::fill(right.begin(), right.end(), 0);
       }
       StereoFrame f;

@@ -41,13 +41,14 @@ enum class Scenario : std::uint8_t {
   kTextureless,      // walls and ceiling textureless (floor and boxes keep texture)
   kImpulses,         // single-sample IMU spikes (30-80 m/s^2, 5-10 rad/s) at the highest yaw rates
   kRightDropout,     // right camera blank (black) for 4 s mid-flight
+  kBlackout,         // both cameras black for 2 s mid-flight (vision lost, then back)
 };
 bool parse_scenario(const std::string& name, Scenario* scenario);
 const char* scenario_name(Scenario scenario);
 inline constexpr Scenario kAllScenarios[] = {Scenario::kNominal, Scenario::kStandstillStart,
                                              Scenario::kUniformStart, Scenario::kDarkStart,
                                              Scenario::kTextureless, Scenario::kImpulses,
-                                             Scenario::kRightDropout};
+                                             Scenario::kRightDropout, Scenario::kBlackout};
 
 enum class SimStyle : std::uint8_t {
   kProcedural,  // the reference simulator (default; its output does not change)
