@@ -37,7 +37,33 @@ optional=()
 if [[ "$want" == "armhf" || "$want" == "all" ]]; then
   mapfile -t optional < <(missing_of "${armhf_lib_pkgs[@]}")
 fi
-[[ ${#missing[@]} -eq 0 && ${#optional[@]} -eq 0 ]] && exit 0
+
+# The tests' independent MAVLink decoder: node-mavlink from the npm registry, pinned, into
+# build/node (not in git). Node.js itself comes with the machine, or from Debian when missing.
+install_node_deps() {
+  local root dir want_version=2.3.0
+  root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+  dir="$root/build/node"
+  if [[ -f "$dir/node_modules/node-mavlink/package.json" ]] &&
+     grep -q "\"version\": \"$want_version\"" "$dir/node_modules/node-mavlink/package.json"; then
+    return 0
+  fi
+  echo "deps: installing node-mavlink@$want_version into $dir (npm)"
+  mkdir -p "$dir"
+  npm install --prefix "$dir" --no-save --no-package-lock --no-audit --no-fund --loglevel=error \
+    "node-mavlink@$want_version" >/dev/null
+}
+
+if ! command -v node >/dev/null || ! command -v npm >/dev/null; then
+  missing_node=(nodejs npm)
+else
+  missing_node=()
+fi
+if [[ ${#missing[@]} -eq 0 && ${#optional[@]} -eq 0 && ${#missing_node[@]} -eq 0 ]]; then
+  install_node_deps
+  exit 0
+fi
+missing+=("${missing_node[@]}")
 
 sudo_cmd=()
 [[ $(id -u) -ne 0 ]] && sudo_cmd=(sudo)
@@ -60,4 +86,5 @@ if [[ ${#optional[@]} -gt 0 ]]; then
   "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${optional[@]}" >/dev/null \
     || echo "deps: the armhf libraries could not be installed: the armhf build covers the solver only" >&2
 fi
+install_node_deps
 echo "deps: done"

@@ -109,7 +109,7 @@ const char* const kIgnoredKeys[] = {
 };
 
 const char* const kOtherKeys[] = {"body_T_cam0", "body_T_cam1", "cam0_calib", "cam1_calib", "image_width",
-                                  "image_height"};
+                                  "image_height", "body_T_vehicle"};
 
 std::string format_value(double v) {
   char buf[40];
@@ -302,6 +302,12 @@ AppConfig load_config(const std::string& path, const RigCalibration& defaults,
   for (int side = 0; side < 2; ++side) {
     const std::string key = side == 0 ? "body_T_cam0" : "body_T_cam1";
     if (yaml.has(key)) config.rig.cam[side].T_b_c = yaml.transform(key);
+  }
+  if (yaml.has("body_T_vehicle")) {
+    config.T_b_vehicle = yaml.transform("body_T_vehicle");
+    const Eigen::Matrix3d R = config.T_b_vehicle.linear();
+    if ((R.transpose() * R - Eigen::Matrix3d::Identity()).norm() > 1e-6 || R.determinant() < 0.0)
+      yaml.fail("body_T_vehicle", "rotation part is not a rotation (orthonormal, det +1)");
   }
 
   for (const NumericKey& k : kNumericKeys) {

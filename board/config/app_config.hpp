@@ -44,6 +44,11 @@ struct AppConfig {
   double huber_px = 1.5;                // px, Huber threshold on the visual residuals
   double outlier_px = 3.0;              // px, an observation this far off marks its landmark an outlier
 
+  // Output to a flight controller (MAVLink, docs/mavlink.md): the vehicle's FRD body in the
+  // estimator's body (IMU) frame. Only its rotation is used; the lever arm is the flight
+  // controller's parameter (EKF2_EV_POS_* / VISO_POS_*).
+  Eigen::Isometry3d T_b_vehicle = Eigen::Isometry3d::Identity();
+
   std::string source;                   // where it came from: the config path, or "sensor.yaml"
 
   // Throws std::invalid_argument "AppConfig.<field> = <value>: allowed <range>".

@@ -13,15 +13,19 @@ constexpr const char* kUsage = R"(umsvins: stereo visual-inertial odometry (UMS-
 usage: umsvins <command> [options]
 
   replay <dataset> [--config F] [--out DIR] [--start S] [--duration S] [--realtime]
-                   [--frontend-only] [--quiet] [--deterministic]
+                   [--frontend-only] [--quiet] [--deterministic] [--mavlink ...]
       Run on an EuRoC-layout folder (the one holding mav0/). Writes DIR/stats.json
       (and DIR/trajectory.tum, DIR/report.html where those stages exist). Default DIR: out/replay.
       --deterministic: solver rounds bounded by iterations, not wall time (same result anywhere).
+      MAVLink (replay and live): --mavlink udp:HOST:PORT|serial:PATH[:BAUD] sends ODOMETRY to a
+      flight controller (docs/mavlink.md); --mavlink-rate HZ (default 30), --mavlink-imu-rate,
+      --mavlink-vision (also VISION_POSITION/SPEED_ESTIMATE), --mavlink-sysid N (default 1).
+      Every ODOMETRY is logged in DIR/mavlink_sent.csv. Use --realtime to feed a live receiver.
   simulate [--trajectory F] [--scenario NAME] [--seed N] [--start S] [--duration S]
            [--camera euroc|d455] [--max-frames N] [--exposure-change]
            [--style procedural|photo] [--texture-dataset DIR] [--exposure-ms MS] --out DIR
       Write a synthetic EuRoC-layout stereo+IMU dataset (scenarios: nominal, standstill-start,
-      uniform-start, dark-start, textureless, impulses, right-dropout). --style photo: a second,
+      uniform-start, dark-start, textureless, impulses, right-dropout, blackout). --style photo: a second,
       independent simulator (textures cut from the real images of the EuRoC dataset DIR, which it
       requires; larger room, uneven light, vignetting, motion blur over --exposure-ms, default 4;
       SE(3) trajectory, decimated IMU with real-sized biases). Default: procedural.
@@ -31,7 +35,7 @@ usage: umsvins <command> [options]
       drift, worst 5 s) of a trajectory against ground truth; --json: the same as JSON.
   sweep <dataset> --runs N --start-range A:B --out DIR [--seed S] [--duration D] [--config F]
       Repeat replay from random start times (robustness table).
-  live [--config F] [--source d455|replay:DIR] [--out DIR] [--seconds S]
+  live [--config F] [--source d455|replay:DIR] [--out DIR] [--seconds S] [--mavlink ...]
       Run the threaded board app on a RealSense D455 (or a recorded source). Ctrl-C stops it.
   record --out DIR [--seconds S]             Record a D455 to the EuRoC layout.
   budget [--config F] [--dataset DIR]        Print the memory each pipeline component takes.

@@ -17,6 +17,7 @@
 #include "core/common/version.hpp"
 #include "hal/d455/d455_device.hpp"
 #include "hal/d455/nominal_calibration.hpp"
+#include "board/host/mavlink_args.hpp"
 #include "hal/d455/realtime.hpp"
 #include "hal/d455/record_euroc.hpp"
 #include "hal/d455/recorder.hpp"
@@ -117,7 +118,8 @@ int run_record(const std::vector<std::string>& argv, std::ostream& out, std::ost
 }
 
 int run_live(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
-  const Args args("live", argv, {"quiet"}, {"config", "source", "out", "seconds", "duration"});
+  const Args args("live", argv, with_mavlink_flags({"quiet"}),
+                  with_mavlink_valued({"config", "source", "out", "seconds", "duration"}));
   args.require_positionals(0, "");
   const std::filesystem::path out_dir = args.get_or("out", "out/live");
   const std::string source = args.get_or("source", "d455");
@@ -166,6 +168,8 @@ int run_live(const std::vector<std::string>& argv, std::ostream& out, std::ostre
   }
   pipeline.set_trajectory_output(trajectory);
   pipeline.set_imu_pose_output(imu_poses);
+  std::unique_ptr<MavlinkSession> mavlink = mavlink_from_args(args, config, out_dir);
+  if (mavlink != nullptr) pipeline.set_pose_consumer(&mavlink->output());
 
   SigintScope sigint;
   std::atomic<bool> producer_done{false};
@@ -216,6 +220,11 @@ int run_live(const std::vector<std::string>& argv, std::ostream& out, std::ostre
   w.value("version", version_string());
   w.value("source", source);
   pipeline.write_stats(w);
+  if (mavlink != nullptr) {
+    pipeline.set_pose_consumer(nullptr);
+    mavlink->output().write_stats(w);
+    if (!mavlink->close()) err << "warning: " << (out_dir / "mavlink_sent.csv").string() << ": write failed\n";
+  }
   w.begin_object("bridge")
       .value("imu_dropped", bridge->imu_dropped())
       .value("frames_dropped", bridge->frames_dropped())

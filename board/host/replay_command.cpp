@@ -17,6 +17,7 @@
 #include "board/config/app_config.hpp"
 #include "board/host/cli_args.hpp"
 #include "board/host/commands.hpp"
+#include "board/host/mavlink_args.hpp"
 #include "board/host/replay_pipeline.hpp"
 #include "core/common/version.hpp"
 #include "hal/replay/euroc_reader.hpp"
@@ -162,8 +163,8 @@ void write_report(const std::string& dataset, const hal::EurocReader& reader, co
 }  // namespace
 
 int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
-  const Args args("replay", argv, {"realtime", "frontend-only", "quiet", "deterministic"},
-                  {"config", "out", "start", "duration"});
+  const Args args("replay", argv, with_mavlink_flags({"realtime", "frontend-only", "quiet", "deterministic"}),
+                  with_mavlink_valued({"config", "out", "start", "duration"}));
   args.require_positionals(1, "<dataset> (the folder holding mav0/)");
   const std::string dataset = args.positionals()[0];
   const std::filesystem::path out_dir = args.get_or("out", "out/replay");
@@ -208,6 +209,8 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
     std::fputs(TumPoseSink::state_header(), states);
     pipeline.set_state_output(states);
   }
+  std::unique_ptr<MavlinkSession> mavlink = mavlink_from_args(args, config, out_dir);
+  if (mavlink != nullptr) pipeline.set_pose_consumer(&mavlink->output());
   const bool quiet = args.has("quiet");
   Progress progress("replay", static_cast<unsigned long>(reader.total_pairs_estimate()));
   const bool realtime = args.has("realtime");
@@ -279,6 +282,11 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
   w.value("wall_s", wall_s, 4);
   w.value("peak_rss_kb", static_cast<std::int64_t>(peak_rss_kb));
   pipeline.write_stats(w);
+  if (mavlink != nullptr) {
+    pipeline.set_pose_consumer(nullptr);
+    mavlink->output().write_stats(w);
+    if (!mavlink->close()) err << "warning: " << (out_dir / "mavlink_sent.csv").string() << ": write failed\n";
+  }
   if (accuracy != nullptr) {
     w.begin_object("accuracy")
         .value("align", "se3")

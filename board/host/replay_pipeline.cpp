@@ -64,7 +64,8 @@ ReplayPipeline::ReplayPipeline(const AppConfig& config, const ReplayPipelineOpti
       times_(new StageTimes()),
       vio_(vio_options_from(options), frontend_options_from(config), estimator_options_from(config, options),
            config.rig) {
-  vio_.set_pose_sink(&poses_);
+  fanout_.set(0, &poses_);
+  vio_.set_pose_sink(&fanout_);
   // Reserved here so that recording a frame never allocates; beyond it frames are counted only.
   for (auto* v : {&series_.t_s, &series_.frontend_ms, &series_.total_ms, &series_.backend_ms, &series_.est_t_s})
     v->reserve(options.report_frames);
@@ -318,6 +319,7 @@ void ReplayPipeline::write_estimator_stats(JsonWriter& w) const {
       .value("still_frames", e.still_frames)
       .value("still_rejected_by_vision", e.still_rejected_by_vision)
       .value("resets", e.resets)
+      .value("relevels", e.relevels)
       .end_object();
 }
 

@@ -14,6 +14,7 @@
 #include "core/common/measurement_sink.hpp"
 #include "core/estimator/estimator.hpp"
 #include "core/frontend/frame_features.hpp"
+#include "core/pipeline/pose_fanout.hpp"
 #include "core/pipeline/vio_pipeline.hpp"
 #include "profiling/json_writer.hpp"
 #include "profiling/stage_timer.hpp"
@@ -68,6 +69,8 @@ class ReplayPipeline final : public MeasurementSink {
   void set_imu_pose_output(std::FILE* file) { poses_.set_imu_pose_output(file); }
   // Where the per-frame mode, velocity and biases go (CSV, TumPoseSink::state_header()).
   void set_state_output(std::FILE* file) { poses_.set_state_output(file); }
+  // A live consumer of every pose besides the files (the MAVLink output); not owned.
+  void set_pose_consumer(PoseSink* sink) { fanout_.set(1, sink); }
   // Keyframe images for later use (none by default); not owned.
   void set_keyframe_image_sink(KeyframeImageSink* sink) { vio_.set_keyframe_image_sink(sink); }
   std::uint64_t poses_written() const { return poses_.poses_written(); }
@@ -106,6 +109,7 @@ class ReplayPipeline final : public MeasurementSink {
   std::int64_t last_t_ns_ = -1;
 
   TumPoseSink poses_;
+  PoseFanout fanout_;  // poses_, then the consumer
   VioPipeline vio_;
   // Running sums for the summary.
   double sum_3d_ = 0.0, sum_2d_left_ = 0.0, sum_2d_right_ = 0.0;

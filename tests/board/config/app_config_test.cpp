@@ -226,6 +226,28 @@ TEST_CASE("the back end's weights are keys of their own", "[config]") {
   CHECK(d.landmark_spread_px == 0.0);
 }
 
+TEST_CASE("body_T_vehicle sets the MAVLink mount; a matrix that is no rotation is refused", "[config]") {
+  const std::string mount = "body_T_vehicle: !!opencv-matrix\n   rows: 4\n   cols: 4\n   dt: d\n"
+                            "   data: [ 0.0, 1.0, 0.0, 0.1,\n           0.0, 0.0, 1.0, 0.0,\n"
+                            "           1.0, 0.0, 0.0, 0.0,\n           0.0, 0.0, 0.0, 1.0 ]\n";
+  std::vector<std::string> warnings;
+  const ums::AppConfig c = ums::load_config(
+      write_vins_config(ums::test::make_temp_dir("config_vehicle"), std::string(kVinsConfig) + mount),
+      micro_calibration(), &warnings);
+  CHECK(warnings.empty());
+  CHECK(c.T_b_vehicle.linear()(0, 1) == 1.0);  // the vehicle's y (right) is the body's x
+  CHECK(c.T_b_vehicle.linear()(2, 0) == 1.0);  // its x (forward) the body's z
+  std::string mirrored = mount;
+  mirrored.replace(mirrored.find("1.0, 0.0, 0.0, 0.0,"), 3, "-1.");  // det -1: a mirror image
+  CHECK_THROWS_WITH(ums::load_config(write_vins_config(ums::test::make_temp_dir("config_vehicle_bad"),
+                                                       std::string(kVinsConfig) + mirrored),
+                                     micro_calibration(), &warnings),
+                    Catch::Contains("body_T_vehicle") && Catch::Contains("not a rotation"));
+  const ums::AppConfig d = ums::load_config(
+      write_vins_config(ums::test::make_temp_dir("config_vehicle_default"), kVinsConfig), micro_calibration(), &warnings);
+  CHECK(d.T_b_vehicle.linear().isIdentity());
+}
+
 TEST_CASE("unknown keys warn with file and key, known VINS keys are silent", "[config]") {
   const std::string dir = ums::test::make_temp_dir("config_unknown");
   const std::string path = write_vins_config(dir, std::string(kVinsConfig) + "max_cnt_typo: 3\nuse_magic: 1\n");
