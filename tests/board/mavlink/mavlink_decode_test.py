@@ -5,7 +5,7 @@ node-mavlink (tests/board/mavlink/decode_mavlink.js), compared with what the pro
 (reset_counter).
 
 usage: mavlink_decode_test.py CASE --umsvins BIN --node-modules DIR --shared DIR --work DIR
-CASE: udp-micro | pty-micro | pty-57600 | sim-frames | resets
+CASE: udp-micro | pty-micro | pty-57600 | sim-frames (UDP) | sim-pty | resets
 Exit 0 when every check holds; each failed check is printed with its numbers.
 """
 import argparse
@@ -258,23 +258,32 @@ def case_pty_57600(args):
           "bytes through the pty %d = bytes the link sent %d (only whole frames)" % (summary["bytes"], link["link_bytes_sent"]))
 
 
-def case_sim_frames(args):
-    data = simulate(args, "sim_V101_20", "nominal", 20)
-    out = os.path.join(args.work, "sim_frames")
-    cap = out + ".bin"
-    # A mount that is not the identity: the vehicle's forward is the body's -y, its right the
-    # body's x (a quarter turn about z), so the frame check exercises body_T_vehicle.
-    config = os.path.join(args.work, "vehicle.yaml")
-    with open(config, "w") as f:
-        f.write('%YAML:1.0\n---\nbody_T_vehicle: !!opencv-matrix\n   rows: 4\n   cols: 4\n   dt: d\n'
+VEHICLE_YAML = ('%YAML:1.0\n---\nbody_T_vehicle: !!opencv-matrix\n   rows: 4\n   cols: 4\n   dt: d\n'
                 '   data: [ 0.0, 1.0, 0.0, 0.0,\n           -1.0, 0.0, 0.0, 0.0,\n'
                 '           0.0, 0.0, 1.0, 0.0,\n           0.0, 0.0, 0.0, 1.0 ]\n')
-    R_b_v = [[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]
-    rc, _ = run_with_udp(replay_cmd(args, data, out, ["--config", config, "--mavlink-vision"]), cap)
+# A mount that is not the identity: the vehicle's forward is the body's -y, its right the body's x
+# (a quarter turn about z), so the frame check exercises body_T_vehicle.
+R_B_V = [[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]
+
+
+def sim_flight(args, transport):
+    data = simulate(args, "sim_V101_20", "nominal", 20)
+    out = os.path.join(args.work, "sim_" + transport)
+    cap = out + ".bin"
+    config = os.path.join(args.work, "vehicle.yaml")
+    with open(config, "w") as f:
+        f.write(VEHICLE_YAML)
+    cmd = replay_cmd(args, data, out, ["--config", config, "--mavlink-vision"])
+    if transport == "udp":
+        rc, _ = run_with_udp(cmd, cap)
+    else:
+        # 3 Mbaud: the replay runs faster than real time, and the wire must keep up without drops.
+        rc = run_with_pty(cmd, cap, 3000000)
     check(rc == 0, "replay exit %d" % rc)
     msgs, summary = decode(args, cap)
     odo = compare_with_log(msgs, summary, out, expect_drops=False)
-    check_frames(odo, data, R_b_v)
+    check(len(odo) >= 390, "%d ODOMETRY messages from the 20 s flight (>= 390)" % len(odo))
+    check_frames(odo, data, R_B_V)
     vpe = [m for m in msgs if m["name"] == "VISION_POSITION_ESTIMATE"]
     vse = [m for m in msgs if m["name"] == "VISION_SPEED_ESTIMATE"]
     check(len(vpe) == len(odo) and len(vse) == len(odo), "one VPE and one VSE per ODOMETRY (%d, %d, %d)" %
@@ -282,6 +291,14 @@ def case_sim_frames(args):
     same = all(abs(a["fields"]["x"] - b["fields"]["x"]) < 1e-6 and a["fields"]["usec"] == b["fields"]["timeUsec"]
                for a, b in zip(vpe, odo))
     check(same, "VPE position and time = ODOMETRY's")
+
+
+def case_sim_frames(args):
+    sim_flight(args, "udp")
+
+
+def case_sim_pty(args):
+    sim_flight(args, "pty")
 
 
 def case_resets(args):
@@ -304,7 +321,7 @@ def case_resets(args):
 
 
 CASES = {"udp-micro": case_udp_micro, "pty-micro": case_pty_micro, "pty-57600": case_pty_57600,
-         "sim-frames": case_sim_frames, "resets": case_resets}
+         "sim-frames": case_sim_frames, "sim-pty": case_sim_pty, "resets": case_resets}
 
 
 def main():
