@@ -54,3 +54,10 @@ namespace ums::capacity {
 inline constexpr std::size_t kMaxVisualResiduals = 6000;   // bearing residuals in one window solve
 inline constexpr std::size_t kStandstillImuSamples = 1024; // IMU samples kept for the standstill test (0.5 s at 2 kHz)
 }  // namespace ums::capacity
+
+// Loop closure (issue 17): the keyframe database and its place-recognition index.
+namespace ums::capacity {
+inline constexpr std::size_t kMaxKeyframes = 2000;             // keyframes in the database
+inline constexpr std::size_t kMaxLoopFeaturesPerKeyframe = 300; // 3D features described per keyframe (paper: best 100-300)
+inline constexpr std::size_t kMaxVocabularyNodes = 111111;      // a complete k=10, L=5 tree (k=10, L=4: 11111)
+}  // namespace ums::capacity
