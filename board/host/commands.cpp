@@ -39,6 +39,9 @@ usage: umsvins <command> [options]
       Run the threaded board app on a RealSense D455 (or a recorded source). Ctrl-C stops it.
   record --out DIR [--seconds S]             Record a D455 to the EuRoC layout.
   budget [--config F] [--dataset DIR]        Print the memory each pipeline component takes.
+  vocab train <dataset>... --out F [--k K] [--levels L] [--every N] [--features M] [--seed S]
+      Train the place-recognition vocabulary (BRIEF-256, hierarchical k-medians; default k 10,
+      levels 4) on every N-th left image (default 10), M corners each (default 300).
   version                                    Print the version.
 
 exit codes: 0 ok, 1 failure (the message names file, line or key), 2 capability not implemented
@@ -66,6 +69,7 @@ int run_cli(const std::vector<std::string>& args, std::ostream& out, std::ostrea
     if (command == "live") return run_live(rest, out, err);
     if (command == "record") return run_record(rest, out, err);
     if (command == "budget") return run_budget(rest, out, err);
+    if (command == "vocab") return run_vocab(rest, out, err);
     err << "umsvins: unknown command '" << command << "'\n\n" << kUsage;
     return kExitUsage;
   } catch (const UsageError& e) {

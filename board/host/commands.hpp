@@ -23,5 +23,6 @@ int run_eval(const std::vector<std::string>& args, std::ostream& out, std::ostre
 int run_record(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
 int run_live(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
 int run_budget(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
+int run_vocab(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
 
 }  // namespace ums::cli
