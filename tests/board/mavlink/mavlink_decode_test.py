@@ -241,7 +241,11 @@ def case_pty_micro(args):
     rc = run_with_pty(replay_cmd(args, micro, out, ["--realtime"]), cap, 921600)
     check(rc == 0, "replay exit %d" % rc)
     msgs, summary = decode(args, cap)
-    compare_with_log(msgs, summary, out, expect_drops=False)
+    # At 921600 baud one ODOMETRY per frame uses 5 % of the wire; a replay that falls behind real
+    # time on a loaded machine catches up in a burst, and a burst beyond 20 ms of wire is dropped by
+    # design. So: nearly everything arrives, and what arrives is whole and exact.
+    odo = compare_with_log(msgs, summary, out, expect_drops=None)
+    check(len(odo) >= 0.9 * 94, "%d of 94 poses arrived at 921600 baud (>= 90 %%)" % len(odo))
 
 
 def case_pty_57600(args):
