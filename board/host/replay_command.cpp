@@ -17,6 +17,7 @@
 #include "board/config/app_config.hpp"
 #include "board/host/cli_args.hpp"
 #include "board/host/commands.hpp"
+#include "board/host/loop_session.hpp"
 #include "board/host/mavlink_args.hpp"
 #include "board/host/replay_pipeline.hpp"
 #include "core/common/version.hpp"
@@ -164,7 +165,7 @@ void write_report(const std::string& dataset, const hal::EurocReader& reader, co
 
 int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
   const Args args("replay", argv, with_mavlink_flags({"realtime", "frontend-only", "quiet", "deterministic"}),
-                  with_mavlink_valued({"config", "out", "start", "duration"}));
+                  with_mavlink_valued({"config", "out", "start", "duration", "vocabulary"}));
   args.require_positionals(1, "<dataset> (the folder holding mav0/)");
   const std::string dataset = args.positionals()[0];
   const std::filesystem::path out_dir = args.get_or("out", "out/replay");
@@ -211,6 +212,8 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
   }
   std::unique_ptr<MavlinkSession> mavlink = mavlink_from_args(args, config, out_dir);
   if (mavlink != nullptr) pipeline.set_pose_consumer(&mavlink->output());
+  std::unique_ptr<LoopSession> loop = pipeline.has_estimator() ? loop_from_args(args, config, out_dir) : nullptr;
+  if (loop != nullptr) loop->attach(pipeline);
   const bool quiet = args.has("quiet");
   Progress progress("replay", static_cast<unsigned long>(reader.total_pairs_estimate()));
   const bool realtime = args.has("realtime");
@@ -286,6 +289,13 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
     pipeline.set_pose_consumer(nullptr);
     mavlink->output().write_stats(w);
     if (!mavlink->close()) err << "warning: " << (out_dir / "mavlink_sent.csv").string() << ": write failed\n";
+  }
+  if (loop != nullptr) {
+    loop->detach(pipeline);
+    if (!loop->finish()) err << "warning: " << loop->map_trajectory_path().string() << ": write failed\n";
+    loop->write_stats(w);
+  } else {
+    w.begin_object("loop").value("enabled", false).end_object();
   }
   if (accuracy != nullptr) {
     w.begin_object("accuracy")

@@ -279,7 +279,8 @@ void Estimator::write_output(const FrameFeatures& ff, const WindowFrame& f, Esti
   o.ba = last_odom_.ba;
   o.bg = last_odom_.bg;
   o.still = f.still;
-  o.reset_counter = static_cast<std::uint32_t>(stats_.resets + stats_.relevels) + odom_.resets();
+  o.odometry_epoch = static_cast<std::uint32_t>(stats_.resets + stats_.relevels);
+  o.reset_counter = o.odometry_epoch + odom_.resets();
   const bool solved = mode_ != EstimatorMode::kImuOnly;
   o.landmarks_in_solve = solved ? builder_->num_selected() : 0;
   o.n_3d_used = o.n_2d_left_used = o.n_2d_right_used = 0;

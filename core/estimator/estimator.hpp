@@ -76,6 +76,9 @@ struct EstimatorOutput {
   // (entering VIO) and moves of the odometry frame. A consumer that fuses the pose (a flight
   // controller: MAVLink reset_counter) resets its reference when this changes.
   std::uint32_t reset_counter = 0;
+  // The odometry frame's epoch (MarginalizedKeyframe::odometry_epoch): resets and re-levellings
+  // only, not the world placements that reset_counter also counts.
+  std::uint32_t odometry_epoch = 0;
 };
 
 // Wall time of the back-end stages of one frame (ms).

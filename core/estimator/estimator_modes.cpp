@@ -199,7 +199,10 @@ void Estimator::slide_window(EstimatorTiming* timing) {
     const int n = vio ? builder_->oldest_frame_blocks(ids) : 0;
     if (vio && !marginalizer_->adopt(builder_->problem(), builder_->blocks(), ids, n))
       ++stats_.marginalization_failures;
-    if (mode_ != EstimatorMode::kImuOnly) marginalizer_->emit_keyframe(*window_, 0, *landmarks_);
+    if (mode_ != EstimatorMode::kImuOnly) {
+      marginalizer_->emit_keyframe(*window_, 0, *landmarks_,
+                                   static_cast<std::uint32_t>(stats_.resets + stats_.relevels), vio);
+    }
     remove_frame(0);
     ++stats_.marginalized_old;
   } else {

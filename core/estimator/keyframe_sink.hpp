@@ -29,6 +29,10 @@ struct KeyframeObservation {
 struct MarginalizedKeyframe {
   FrameId id = kNoFrame;
   std::int64_t t_ns = 0;                                     // IMU clock
+  // Changes whenever the odometry frame restarts or is re-levelled (a reset, entering VIO):
+  // poses and points of keyframes with different epochs are in different frames.
+  std::uint32_t odometry_epoch = 0;
+  bool gravity_aligned = false;  // the odometry frame is levelled to gravity (VIO), z up
   Eigen::Isometry3d T_odom_b = Eigen::Isometry3d::Identity();
   FixedVector<KeyframeObservation, capacity::kMaxLandmarks> observations;
 };

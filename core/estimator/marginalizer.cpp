@@ -64,13 +64,16 @@ bool Marginalizer::marginalize_frame(FrameId id, Window& window, solver::Problem
   return adopt(problem, *table, marg, n);
 }
 
-void Marginalizer::emit_keyframe(const Window& window, int pos, const LandmarkMap& landmarks) {
+void Marginalizer::emit_keyframe(const Window& window, int pos, const LandmarkMap& landmarks,
+                                 std::uint32_t odometry_epoch, bool gravity_aligned) {
   if (sink_ == nullptr) return;
   const WindowFrame& f = window.at(pos);
   const int slot = window.slot_at(pos);
   MarginalizedKeyframe& k = *record_;
   k.id = f.id;
   k.t_ns = f.t_ns;
+  k.odometry_epoch = odometry_epoch;
+  k.gravity_aligned = gravity_aligned;
   k.T_odom_b = window.T_w_b(slot);
   k.observations.clear();
   for (int i = 0; i < landmarks.size(); ++i) {

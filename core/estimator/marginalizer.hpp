@@ -45,7 +45,9 @@ class Marginalizer {
 
   void set_keyframe_sink(KeyframeSink* sink) { sink_ = sink; }
   // Hands the window frame at `pos` (leaving now) to the sink, with its observations and points.
-  void emit_keyframe(const Window& window, int pos, const LandmarkMap& landmarks);
+  // odometry_epoch and gravity_aligned: MarginalizedKeyframe's.
+  void emit_keyframe(const Window& window, int pos, const LandmarkMap& landmarks,
+                     std::uint32_t odometry_epoch, bool gravity_aligned);
   std::uint64_t keyframes_emitted() const { return emitted_; }
 
  private:

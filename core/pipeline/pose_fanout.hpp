@@ -1,6 +1,6 @@
 #pragma once
-// Hands every pose to two sinks (the pose files and a live consumer such as the MAVLink
-// output); a null slot is skipped. Fixed, no allocation.
+// Hands every pose to up to three sinks (the pose files, a live consumer such as the MAVLink
+// output, the map-frame poses of loop closure); a null slot is skipped. Fixed, no allocation.
 
 #include <cstdint>
 
@@ -21,7 +21,7 @@ class PoseFanout final : public PoseSink {
   }
 
  private:
-  PoseSink* sinks_[2] = {nullptr, nullptr};
+  PoseSink* sinks_[3] = {nullptr, nullptr, nullptr};
 };
 
 }  // namespace ums

@@ -80,7 +80,7 @@ void VioPipeline::run_estimator(const StereoFrame& frame) {
   // A frame the estimator refused (out of order) repeats the previous output: not a keyframe.
   const bool processed = estimator_->stats().frames_out_of_order == refused_before;
   if (est.keyframe && processed && keyframe_sink_ != nullptr) {
-    keyframe_sink_->on_keyframe_image(est.frame_id, est.t_ns, frame.left);
+    keyframe_sink_->on_keyframe_image(est.frame_id, est.t_ns, frame.left, *features_);
   }
 }
 

@@ -71,6 +71,10 @@ class VioPipeline final : public MeasurementSink {
   // Not owned; nullptr: the output is not produced. Set between pushes.
   void set_pose_sink(PoseSink* sink) { pose_sink_ = sink; }
   void set_keyframe_image_sink(KeyframeImageSink* sink) { keyframe_sink_ = sink; }
+  // The estimator's marginalized keyframes (no effect with frontend_only).
+  void set_keyframe_sink(KeyframeSink* sink) {
+    if (estimator_ != nullptr) estimator_->set_keyframe_sink(sink);
+  }
 
   const Estimator* estimator() const { return estimator_.get(); }  // nullptr with frontend_only
   const VioPipelineCounters& counters() const { return counters_; }

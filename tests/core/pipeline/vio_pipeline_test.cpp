@@ -29,6 +29,7 @@ struct KeyframeImage {
   ums::FrameId id = ums::kNoFrame;
   std::int64_t t_ns = 0;
   ums::ImageView left;
+  int n_features = 0;  // features handed on with the image
 };
 
 // Records what the pipeline hands on; reserved up front so that recording never allocates.
@@ -44,8 +45,9 @@ class Recorder final : public ums::PoseSink, public ums::KeyframeImageSink {
     frame_poses.push_back({out.t_ns, out.frame_id, out.keyframe});
   }
   void on_imu_pose(std::int64_t t_ns, const ums::NavState&) override { imu_pose_t_ns.push_back(t_ns); }
-  void on_keyframe_image(ums::FrameId id, std::int64_t t_ns, const ums::ImageView& left) override {
-    keyframes.push_back({id, t_ns, left});
+  void on_keyframe_image(ums::FrameId id, std::int64_t t_ns, const ums::ImageView& left,
+                         const ums::FrameFeatures& features) override {
+    keyframes.push_back({id, t_ns, left, static_cast<int>(features.features.size())});
   }
 
   std::vector<FramePose> frame_poses;
@@ -154,6 +156,7 @@ TEST_CASE("pipeline on the EuRoC micro sequence: a pose per frame with one, keyf
     CHECK(img.left.data == run.left_data[i]);
     CHECK(img.left.width == 752);
     CHECK(img.left.height == 480);
+    CHECK(img.n_features >= 50);  // the frame's tracked features come with it (textured room)
   }
   CHECK(run.steady_allocations == 0);
 }

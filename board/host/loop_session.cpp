@@ -1,0 +1,126 @@
+#include "board/host/loop_session.hpp"
+
+#include <fstream>
+#include <iterator>
+#include <sstream>
+#include <stdexcept>
+#include <vector>
+
+#include "board/host/cli_args.hpp"
+#include "board/host/replay_pipeline.hpp"
+#include "core/estimator/estimator.hpp"
+
+namespace ums::cli {
+
+loop::Vocabulary read_vocabulary(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error(path.string() + ": cannot open the vocabulary");
+  const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  return loop::Vocabulary::parse(bytes, path.string());
+}
+
+LoopSession::LoopSession(const std::filesystem::path& vocabulary, const AppConfig& config,
+                         const std::filesystem::path& out_dir)
+    : out_dir_(out_dir),
+      map_path_(out_dir / "trajectory_map.tum"),
+      vocabulary_path_(vocabulary.string()),
+      vocabulary_(read_vocabulary(vocabulary)),
+      closer_(std::make_unique<loop::LoopCloser>(loop::LoopOptions{}, config.rig, vocabulary_)) {
+  map_file_ = std::fopen(map_path_.c_str(), "w");
+  if (map_file_ == nullptr) throw std::runtime_error(map_path_.string() + ": cannot open for writing");
+  std::fputs("# t_s x y z qx qy qz qw (body = IMU in the map frame: T_map_odom * T_odom_b; umsvins)\n", map_file_);
+}
+
+LoopSession::~LoopSession() {
+  if (map_file_ != nullptr) std::fclose(map_file_);
+}
+
+void LoopSession::attach(ReplayPipeline& pipeline) {
+  pipeline.set_keyframe_image_sink(closer_.get());
+  pipeline.set_keyframe_sink(closer_.get());
+  pipeline.set_map_pose_consumer(this);
+}
+
+void LoopSession::detach(ReplayPipeline& pipeline) {
+  pipeline.set_keyframe_image_sink(nullptr);
+  pipeline.set_keyframe_sink(nullptr);
+  pipeline.set_map_pose_consumer(nullptr);
+}
+
+void LoopSession::on_frame_pose(const EstimatorOutput& out) {
+  Eigen::Isometry3d T_map_odom;
+  if (map_file_ == nullptr || !closer_->map_from_odometry(out.odometry_epoch, &T_map_odom)) return;
+  const Eigen::Vector3d p = T_map_odom * out.p_w_b;
+  const Eigen::Quaterniond q = Eigen::Quaterniond(T_map_odom.linear() * out.q_w_b.toRotationMatrix()).normalized();
+  std::fprintf(map_file_, "%lld.%09lld %.7f %.7f %.7f %.9f %.9f %.9f %.9f\n",
+               static_cast<long long>(out.t_ns / 1000000000), static_cast<long long>(out.t_ns % 1000000000),
+               p.x(), p.y(), p.z(), q.x(), q.y(), q.z(), q.w());
+  ++map_poses_;
+}
+
+bool LoopSession::finish() {
+  bool ok = true;
+  if (map_file_ != nullptr) {
+    ok = std::fclose(map_file_) == 0;
+    map_file_ = nullptr;
+  }
+  std::ofstream csv(out_dir_ / "loops.csv");
+  csv << "# t_query_s,t_loop_s,query_frame,loop_frame,inliers,correction_m,correction_deg,relocalization,"
+         "x,y,z,qx,qy,qz,qw (T_loop_query: the query's body in the loop keyframe's body frame)\n";
+  char line[320];
+  for (std::size_t i = 0; i < closer_->num_events(); ++i) {
+    const loop::LoopEvent& e = closer_->event(i);
+    const Eigen::Vector3d t = e.T_loop_query.translation();
+    const Eigen::Quaterniond q(e.T_loop_query.linear());
+    std::snprintf(line, sizeof(line), "%lld.%09lld,%lld.%09lld,%u,%u,%d,%.5f,%.4f,%d,%.6f,%.6f,%.6f,%.8f,%.8f,%.8f,%.8f\n",
+                  static_cast<long long>(e.t_query_ns / 1000000000), static_cast<long long>(e.t_query_ns % 1000000000),
+                  static_cast<long long>(e.t_loop_ns / 1000000000), static_cast<long long>(e.t_loop_ns % 1000000000),
+                  e.query, e.loop, e.inliers, e.correction_m, e.correction_deg, e.relocalization ? 1 : 0,
+                  t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w());
+    csv << line;
+  }
+  csv.flush();
+  return ok && static_cast<bool>(csv);
+}
+
+void LoopSession::write_stats(JsonWriter& w) const {
+  const loop::LoopStats& s = closer_->stats();
+  w.begin_object("loop")
+      .value("enabled", true)
+      .value("vocabulary", vocabulary_path_)
+      .value("vocabulary_checksum", static_cast<std::uint64_t>(vocabulary_.checksum()))
+      .value("keyframes", static_cast<std::uint64_t>(closer_->database().size()))
+      .value("keyframes_in", s.keyframes_in)
+      .value("keyframes_not_levelled", s.keyframes_not_levelled)
+      .value("keyframes_without_image", s.keyframes_without_image)
+      .value("keyframes_not_indexed", s.keyframes_not_indexed)
+      .value("keyframes_decimated", s.keyframes_decimated)
+      .value("index_full", s.index_full)
+      .value("sessions", s.sessions)
+      .value("queries", s.queries)
+      .value("queries_skipped", s.queries_skipped)
+      .value("loop_edges_full", s.loop_edges_full)
+      .value("candidates", s.candidates)
+      .value("accepted", s.accepted)
+      .value("relocalizations", s.relocalizations);
+  w.begin_object("rejected_by");
+  for (int g = 0; g < static_cast<int>(loop::LoopGate::kCount); ++g) {
+    w.value(loop::to_string(static_cast<loop::LoopGate>(g)), s.rejected_by[g]);
+  }
+  w.end_object();
+  w.value("corrections", static_cast<std::uint64_t>(closer_->corrections()))
+      .value("max_correction_m", s.max_correction_m, 4)
+      .value("max_pose_graph_ms", s.max_pose_graph_ms, 3)
+      .value("map_poses", map_poses_)
+      .value("peak_bytes", static_cast<std::uint64_t>(closer_->footprint_bytes()))
+      .end_object();
+}
+
+std::unique_ptr<LoopSession> loop_from_args(const Args& args, const AppConfig& config,
+                                            const std::filesystem::path& out_dir) {
+  const std::optional<std::string> vocabulary = args.get("vocabulary");
+  if (!vocabulary) return nullptr;
+  return std::make_unique<LoopSession>(*vocabulary, config, out_dir);
+}
+
+}  // namespace ums::cli

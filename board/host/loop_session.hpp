@@ -1,0 +1,67 @@
+#pragma once
+// Loop closure in a replay or a live run: the vocabulary read from its file, the LoopCloser fed
+// by the pipeline's keyframes, and its outputs: trajectory_map.tum (T_map_odom * T_odom_b per
+// frame, from the first frame that has a map pose; trajectory.tum stays the continuous
+// odometry), loops.csv (every accepted loop with its size) and stats.json's "loop" object.
+//
+// Flags: --vocabulary F turns loop closure on (no vocabulary, no loop closure: the outputs are
+// not written and stats.json says "loop": {"enabled": false}).
+
+#include <cstdint>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include "board/config/app_config.hpp"
+#include "core/loop/loop_closer.hpp"
+#include "core/loop/vocabulary.hpp"
+#include "core/pipeline/pose_sink.hpp"
+#include "profiling/json_writer.hpp"
+
+namespace ums::cli {
+
+class Args;
+class ReplayPipeline;
+
+// Reads and parses a vocabulary file; std::runtime_error naming the file and the reason.
+loop::Vocabulary read_vocabulary(const std::filesystem::path& path);
+
+class LoopSession final : public PoseSink {
+ public:
+  LoopSession(const std::filesystem::path& vocabulary, const AppConfig& config,
+              const std::filesystem::path& out_dir);
+  ~LoopSession() override;
+  LoopSession(const LoopSession&) = delete;
+  LoopSession& operator=(const LoopSession&) = delete;
+
+  // Connects the closer to the pipeline's keyframes and this to its poses.
+  void attach(ReplayPipeline& pipeline);
+  void detach(ReplayPipeline& pipeline);
+
+  void on_frame_pose(const EstimatorOutput& out) override;
+  void on_imu_pose(std::int64_t, const NavState&) override {}
+
+  // Closes trajectory_map.tum, writes loops.csv; false when a write failed.
+  bool finish();
+  void write_stats(JsonWriter& w) const;
+  const loop::LoopCloser& closer() const { return *closer_; }
+  std::uint64_t map_poses() const { return map_poses_; }
+  const std::filesystem::path& map_trajectory_path() const { return map_path_; }
+
+ private:
+  std::filesystem::path out_dir_;
+  std::filesystem::path map_path_;
+  std::string vocabulary_path_;
+  loop::Vocabulary vocabulary_;
+  std::unique_ptr<loop::LoopCloser> closer_;
+  std::FILE* map_file_ = nullptr;
+  std::uint64_t map_poses_ = 0;
+  std::size_t startup_bytes_ = 0;
+};
+
+// The session asked for by --vocabulary, or nullptr.
+std::unique_ptr<LoopSession> loop_from_args(const Args& args, const AppConfig& config,
+                                            const std::filesystem::path& out_dir);
+
+}  // namespace ums::cli

@@ -1,0 +1,170 @@
+#pragma once
+// Loop closure (the paper's Sec. III-C, second half; docs/loop-closure.md): fed by the pipeline's
+// keyframe images and the estimator's marginalized keyframes, it keeps the keyframe database,
+// asks place recognition for candidates, verifies them through a chain of gates (each rejection
+// counted), and on an accepted loop solves the 4-DoF pose graph and moves the map frame:
+// T_map_b = T_map_odom * T_odom_b. The odometry itself is never changed.
+//
+// Keyframe images arrive when a frame becomes a keyframe; the keyframe leaves the window some
+// frames later. In between, its left features' descriptors wait in a small ring (described at
+// the tracked positions, once per keyframe); when it leaves, those of its 3D landmarks with a
+// depth are kept. Sessions: an estimator reset starts a new odometry frame; its keyframes join the
+// map only through a verified loop (relocalization), and until then it has no map pose.
+//
+// Everything is allocated at construction. The work runs where the sinks are called (the frame
+// thread in replay, which keeps --deterministic runs identical); it is per keyframe, never per
+// frame.
+
+#include <cstdint>
+#include <memory>
+
+#include <Eigen/Geometry>
+
+#include "core/common/calibration.hpp"
+#include "core/estimator/keyframe_sink.hpp"
+#include "core/frontend/frame_features.hpp"
+#include "core/loop/brief.hpp"
+#include "core/loop/inverted_index.hpp"
+#include "core/loop/keyframe_database.hpp"
+#include "core/loop/loop_verifier.hpp"
+#include "core/loop/pose_graph.hpp"
+#include "core/loop/vocabulary.hpp"
+#include "core/pipeline/keyframe_image_sink.hpp"
+
+namespace ums::loop {
+
+struct LoopOptions {
+  double recent_s = 20.0;              // s, candidates must be older than this (not the same pass)
+  int candidates = 3;                  // best index hits verified per query
+  int min_features = 30;               // 3D features for a keyframe to be indexed and queried
+  float min_score = 0.01f;             // L1 score of a candidate
+  float min_normalized_score = 0.2f;   // candidate score / score against the previous keyframe
+  int min_inliers = 25;                // after PnP (VINS-Mono: 25)
+  double min_inlier_ratio = 0.35;      // inliers / descriptor matches
+  double max_gravity_deg = 3.0;        // roll/pitch disagreement of the loop with both keyframes
+  double drift_base_m = 0.3;           // drift budget: base + per metre flown between the two
+  double drift_per_m = 0.05;
+  double drift_base_deg = 3.0;
+  double drift_per_m_deg = 0.3;
+  int protected_recent = 60;           // newest keyframes decimation never drops
+  double loop_interval_s = 1.0;        // s, no query for this long after an accepted loop
+  // Pose-graph odometry edge between consecutive keyframes: base + per metre between them
+  // (VIO drifts well under 1 % of the distance; a loop must not bend the odometry locally).
+  double odom_sigma_p_m = 0.002;
+  double odom_sigma_p_per_m = 0.01;
+  double odom_sigma_yaw_deg = 0.02;
+  double odom_sigma_yaw_deg_per_m = 0.1;
+  double loop_sigma_p_m = 0.03;        // loop edge (robust)
+  double loop_sigma_yaw_deg = 0.5;
+  LoopVerifierOptions verifier;
+  PoseGraphOptions graph;
+  void validate() const;               // std::invalid_argument naming the field
+};
+
+// Why a candidate was refused (index into LoopStats::rejected_by).
+enum class LoopGate : std::uint8_t {
+  kScore = 0, kMatches, kInliers, kInlierRatio, kGravity, kDriftBudget, kPoseGraph, kCount
+};
+const char* to_string(LoopGate g);
+
+struct LoopStats {
+  std::uint64_t keyframes_in = 0;          // marginalized keyframes received
+  std::uint64_t keyframes_not_levelled = 0; // from a frame not levelled to gravity (not kept)
+  std::uint64_t keyframes_without_image = 0;  // no descriptors waiting for them (not indexed)
+  std::uint64_t keyframes_not_indexed = 0; // fewer than min_features 3D features
+  std::uint64_t keyframes_decimated = 0;   // dropped by the full-database policy
+  std::uint64_t index_full = 0;            // postings pool full (not indexed)
+  std::uint64_t queries = 0;
+  std::uint64_t queries_skipped = 0;       // within loop_interval_s of an accepted loop
+  std::uint64_t loop_edges_full = 0;       // loops verified but not kept: kMaxLoopEdges reached
+  std::uint64_t candidates = 0;            // index hits examined
+  std::uint64_t accepted = 0;
+  std::uint64_t relocalizations = 0;       // accepted loops that joined a new session to the map
+  std::uint64_t rejected_by[static_cast<int>(LoopGate::kCount)] = {};
+  std::uint64_t sessions = 0;              // odometry frames (resets) that reached the database
+  double max_correction_m = 0.0;           // largest change of the newest keyframe's map pose
+  double max_pose_graph_ms = 0.0;
+};
+
+struct LoopEvent {
+  std::int64_t t_query_ns = 0, t_loop_ns = 0;
+  FrameId query = kNoFrame, loop = kNoFrame;
+  int inliers = 0;
+  double correction_m = 0.0, correction_deg = 0.0;  // change of the map pose of the query keyframe
+  bool relocalization = false;
+  Eigen::Isometry3d T_loop_query = Eigen::Isometry3d::Identity();  // measured, body frames
+};
+
+class LoopCloser final : public KeyframeSink, public KeyframeImageSink {
+ public:
+  // vocabulary: not owned, outlives the closer. Throws std::invalid_argument on bad options.
+  LoopCloser(const LoopOptions& options, const RigCalibration& rig, const Vocabulary& vocabulary);
+  ~LoopCloser() override;
+  LoopCloser(const LoopCloser&) = delete;
+  LoopCloser& operator=(const LoopCloser&) = delete;
+
+  void on_keyframe_image(FrameId id, std::int64_t t_ns, const ImageView& left,
+                         const FrameFeatures& features) override;
+  // Keyframes of a frame not levelled to gravity (VO) are not kept: a 4-DoF map needs gravity.
+  void on_keyframe(const MarginalizedKeyframe& keyframe) override;
+
+  // T_map_odom of the odometry frame of epoch `odometry_epoch` (EstimatorOutput's); false while
+  // that frame is not placed in the map (not levelled yet, or a new frame not yet relocalized).
+  bool map_from_odometry(std::uint32_t odometry_epoch, Eigen::Isometry3d* T_map_odom) const;
+  // Incremented by every change of T_map_odom (MAVLink's reset_counter).
+  std::uint32_t corrections() const { return corrections_; }
+
+  const LoopStats& stats() const { return stats_; }
+  std::size_t num_events() const { return n_events_; }
+  const LoopEvent& event(std::size_t i) const { return events_[i]; }
+  const KeyframeDatabase& database() const { return *db_; }
+  std::size_t footprint_bytes() const;
+
+ private:
+  static constexpr std::size_t kPending = capacity::kWindowSize + 4;
+  static constexpr std::uint32_t kSessions = 64;
+  struct Pending;
+
+  bool build_record(const MarginalizedKeyframe& k, std::uint32_t slot);
+  void make_room();
+  void query(std::uint32_t slot);
+  bool passes_gates(std::uint32_t q_slot, std::uint32_t c_slot, const LoopGeometry& g);
+  bool close_loop(std::uint32_t q_slot, std::uint32_t c_slot, const LoopGeometry& g);
+  bool solve_graph();
+  void reject(LoopGate g) { ++stats_.rejected_by[static_cast<int>(g)]; }
+
+  LoopOptions options_;
+  const Vocabulary& vocabulary_;
+  Eigen::Isometry3d T_b_c0_;
+  BriefDescriber describer_;
+  LoopVerifier verifier_;
+  std::unique_ptr<KeyframeDatabase> db_;
+  std::unique_ptr<InvertedIndex> index_;
+  std::unique_ptr<PoseGraph4Dof> graph_;
+  std::unique_ptr<Pending[]> pending_;
+  std::size_t pending_next_ = 0;
+  std::unique_ptr<Descriptor[]> scratch_;       // one keyframe's descriptors, for the vocabulary
+  std::unique_ptr<std::int32_t[]> node_of_;     // per database slot: its pose-graph node, or -1
+  std::unique_ptr<std::uint32_t[]> slot_of_;    // per pose-graph node: its database slot
+  struct LoopEdge {
+    std::uint32_t c_slot, q_slot;
+    Eigen::Isometry3d T_c_q;
+  };
+  std::unique_ptr<LoopEdge[]> loops_;
+  std::size_t n_loops_ = 0;
+  std::unique_ptr<LoopEvent[]> events_;
+  std::size_t n_events_ = 0;
+  void begin_session(std::uint32_t epoch);
+
+  std::uint32_t session_ = 0;
+  std::uint32_t epoch_ = 0;
+  bool started_ = false;
+  std::int64_t last_loop_t_ns_ = 0;
+  bool any_loop_ = false;
+  bool placed_[kSessions] = {};  // per session (mod kSessions): joined to the map
+  Eigen::Isometry3d T_map_odom_ = Eigen::Isometry3d::Identity();
+  std::uint32_t corrections_ = 0;
+  LoopStats stats_;
+};
+
+}  // namespace ums::loop

@@ -1,0 +1,141 @@
+#include "core/loop/loop_verifier.hpp"
+
+#include <Eigen/Geometry>
+
+#include "core/estimator/geometry.hpp"
+
+namespace ums::loop {
+
+namespace {
+
+constexpr std::size_t kMaxF = capacity::kMaxLoopFeaturesPerKeyframe;
+
+// xorshift32: the same samples on every build.
+std::uint32_t next_random(std::uint32_t* s) {
+  std::uint32_t x = *s;
+  x ^= x << 13;
+  x ^= x >> 17;
+  x ^= x << 5;
+  return *s = x;
+}
+
+double angle_between(const Eigen::Vector3d& a_unit, const Eigen::Vector3d& p) {
+  const double n = p.norm();
+  if (!(n > 1e-9) || p.z() <= 0.0) return 1e9;  // behind the camera
+  return std::acos(std::min(1.0, a_unit.dot(p / n)));
+}
+
+}  // namespace
+
+LoopVerifier::LoopVerifier(const LoopVerifierOptions& options, const Eigen::Isometry3d& T_b_c0)
+    : options_(options),
+      T_b_c0_(T_b_c0),
+      T_c0_b_(T_b_c0.inverse()),
+      qi_(new std::uint16_t[kMaxF]),
+      ci_(new std::uint16_t[kMaxF]),
+      best_of_c_(new std::int16_t[kMaxF]),
+      mask_(new std::uint8_t[kMaxF]),
+      best_mask_(new std::uint8_t[kMaxF]) {}
+
+int LoopVerifier::match(const KeyframeRecord& q, const KeyframeRecord& c) {
+  // Each candidate feature's nearest query feature, then keep the query features whose nearest
+  // candidate feature points back at them (mutual), under the Hamming bound.
+  const int nq = static_cast<int>(q.features.size());
+  const int nc = static_cast<int>(c.features.size());
+  for (int j = 0; j < nc; ++j) {
+    int best = 257, arg = -1;
+    for (int i = 0; i < nq; ++i) {
+      const int d = hamming(q.features[i].descriptor, c.features[j].descriptor);
+      if (d < best) best = d, arg = i;
+    }
+    best_of_c_[j] = static_cast<std::int16_t>(best <= options_.max_hamming ? arg : -1);
+  }
+  n_ = 0;
+  for (int i = 0; i < nq; ++i) {
+    int best = 257, arg = -1;
+    for (int j = 0; j < nc; ++j) {
+      const int d = hamming(q.features[i].descriptor, c.features[j].descriptor);
+      if (d < best) best = d, arg = j;
+    }
+    if (arg < 0 || best > options_.max_hamming || best_of_c_[arg] != i) continue;
+    qi_[n_] = static_cast<std::uint16_t>(i);
+    ci_[n_] = static_cast<std::uint16_t>(arg);
+    ++n_;
+  }
+  return n_;
+}
+
+int LoopVerifier::count_inliers(const KeyframeRecord& q, const KeyframeRecord& c,
+                                const Eigen::Isometry3d& T_c_q, std::uint8_t* mask) const {
+  // A match is an inlier when each keyframe's point reprojects onto the other's observation.
+  const Eigen::Isometry3d T_c0c_bq = T_c0_b_ * T_c_q;
+  const Eigen::Isometry3d T_c0q_bc = T_c0_b_ * T_c_q.inverse();
+  int n_in = 0;
+  for (int k = 0; k < n_; ++k) {
+    const LoopFeature& fq = q.features[qi_[k]];
+    const LoopFeature& fc = c.features[ci_[k]];
+    const double e_c = angle_between(fc.bearing_c0.cast<double>(), T_c0c_bq * fq.p_b.cast<double>());
+    const double e_q = angle_between(fq.bearing_c0.cast<double>(), T_c0q_bc * fc.p_b.cast<double>());
+    const bool in = e_c < options_.inlier_rad && e_q < options_.inlier_rad;
+    mask[k] = in ? 1 : 0;
+    n_in += in ? 1 : 0;
+  }
+  return n_in;
+}
+
+bool LoopVerifier::ransac(const KeyframeRecord& q, const KeyframeRecord& c, Eigen::Isometry3d* T_c_q) {
+  std::uint32_t rng = options_.seed;
+  int best_inliers = 3;
+  for (int it = 0; it < options_.ransac_iterations; ++it) {
+    int s[3];
+    for (int k = 0; k < 3; ++k) s[k] = static_cast<int>(next_random(&rng) % static_cast<std::uint32_t>(n_));
+    if (s[0] == s[1] || s[0] == s[2] || s[1] == s[2]) continue;
+    Eigen::Matrix3d src, dst;
+    for (int k = 0; k < 3; ++k) {
+      src.col(k) = q.features[qi_[s[k]]].p_b.cast<double>();
+      dst.col(k) = c.features[ci_[s[k]]].p_b.cast<double>();
+    }
+    // A degenerate (nearly collinear) sample fixes no rotation about its line.
+    if ((src.col(1) - src.col(0)).cross(src.col(2) - src.col(0)).norm() < 1e-3) continue;
+    Eigen::Isometry3d T;
+    T.matrix() = Eigen::umeyama(src, dst, false);
+    const int n_in = count_inliers(q, c, T, mask_.get());
+    if (n_in > best_inliers) {
+      best_inliers = n_in;
+      *T_c_q = T;
+    }
+  }
+  return best_inliers > 3;
+}
+
+bool LoopVerifier::refine(const KeyframeRecord& q, const KeyframeRecord& c, LoopGeometry* out) {
+  PnpMatch m[kMaxF];
+  for (int k = 0; k < n_; ++k) {
+    m[k].p_w = c.features[ci_[k]].p_b.cast<double>();
+    m[k].bearing = q.features[qi_[k]].bearing_c0.cast<double>();
+    m[k].cam = 0;
+  }
+  PnpOptions po;
+  po.inlier_rad = options_.inlier_rad;
+  po.min_inliers = 4;
+  po.seed = options_.seed;
+  const Eigen::Isometry3d T_b_c[2] = {T_b_c0_, T_b_c0_};
+  Eigen::Isometry3d T = out->T_c_q;
+  const PnpResult r = solve_pnp(m, n_, T_b_c, po, &T, best_mask_.get());
+  if (!r.ok) return false;
+  out->T_c_q = T;
+  out->inliers = count_inliers(q, c, T, mask_.get());
+  out->rms_rad = r.rms_rad;
+  return true;
+}
+
+bool LoopVerifier::verify(const KeyframeRecord& query, const KeyframeRecord& candidate, LoopGeometry* out) {
+  *out = LoopGeometry{};
+  out->matches = match(query, candidate);
+  if (out->matches < options_.min_matches) return false;
+  if (!ransac(query, candidate, &out->T_c_q)) return false;
+  out->inliers = count_inliers(query, candidate, out->T_c_q, mask_.get());
+  return refine(query, candidate, out);
+}
+
+}  // namespace ums::loop

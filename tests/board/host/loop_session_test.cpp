@@ -1,0 +1,123 @@
+// Loop closure in umsvins replay (board/host/loop_session): --vocabulary turns it on, the
+// map-frame trajectory sits beside the odometry, stats.json says what the closer did, and a bad
+// vocabulary is refused with the file's name.
+#include "board/host/loop_session.hpp"
+
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include "board/host/commands.hpp"
+#include "tests/common/test_paths.hpp"
+
+namespace ums::cli {
+namespace {
+
+int run(const std::vector<std::string>& args, std::string* out, std::string* err) {
+  std::ostringstream o, e;
+  const int code = run_cli(args, o, e);
+  *out = o.str();
+  *err = e.str();
+  return code;
+}
+
+std::string slurp(const std::string& path) {
+  std::ifstream f(path);
+  std::stringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+// TUM lines by stamp: t_s -> x y z qx qy qz qw.
+std::map<std::string, std::vector<double>> read_tum(const std::string& path) {
+  std::map<std::string, std::vector<double>> poses;
+  std::ifstream f(path);
+  std::string line;
+  while (std::getline(f, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream in(line);
+    std::string t;
+    std::vector<double> v(7);
+    in >> t;
+    for (double& x : v) in >> x;
+    poses[t] = v;
+  }
+  return poses;
+}
+
+// The number after "key": inside stats.json's "loop" object (NaN when absent).
+double loop_stat(const std::string& stats, const std::string& key) {
+  const std::size_t loop = stats.find("\"loop\": {");
+  if (loop == std::string::npos) return std::nan("");
+  const std::size_t k = stats.find("\"" + key + "\": ", loop);
+  if (k == std::string::npos) return std::nan("");
+  const std::string v = stats.substr(k + key.size() + 4, 8);
+  if (v.rfind("true", 0) == 0) return 1.0;
+  if (v.rfind("false", 0) == 0) return 0.0;
+  return std::strtod(v.c_str(), nullptr);
+}
+
+std::string micro_vocabulary(const std::string& dir) {
+  const std::string path = dir + "/micro.voc";
+  std::string out, err;
+  REQUIRE(run({"vocab", "train", test::euroc_micro_dir(), "--out", path, "--k", "6", "--levels", "3", "--every", "10"},
+              &out, &err) == kExitOk);
+  return path;
+}
+
+}  // namespace
+
+TEST_CASE("replay --vocabulary: the map trajectory equals the odometry until a loop moves it", "[cli][loop]") {
+  const std::string dir = test::make_temp_dir("loop_session");
+  const std::string voc = micro_vocabulary(dir);
+  std::string out, err;
+  REQUIRE(run({"replay", test::euroc_micro_dir(), "--vocabulary", voc, "--out", dir + "/run", "--quiet", "--deterministic"},
+              &out, &err) == kExitOk);
+  INFO(out << err);
+  const std::string stats = slurp(dir + "/run/stats.json");
+  CHECK(loop_stat(stats, "enabled") == 1.0);
+  // 4.75 s at rest: the frames that filled the window reach the database (at rest there are no
+  // new keyframes); none is old enough (20 s) to be a candidate.
+  CHECK(loop_stat(stats, "keyframes") >= 5);
+  CHECK(loop_stat(stats, "candidates") == 0);
+  CHECK(loop_stat(stats, "accepted") == 0);
+  CHECK(loop_stat(stats, "peak_bytes") > 1e6);
+  const auto odom = read_tum(dir + "/run/trajectory.tum");
+  const auto map = read_tum(dir + "/run/trajectory_map.tum");
+  // Map poses start once the first levelled keyframe left the window, then every frame has one.
+  REQUIRE(map.size() >= 40);
+  CHECK(map.size() < odom.size());
+  for (const auto& [t, pose] : map) {
+    REQUIRE(odom.count(t) == 1);
+    for (int i = 0; i < 7; ++i) CHECK(std::abs(pose[i] - odom.at(t)[i]) < 1e-6);
+  }
+  CHECK(slurp(dir + "/run/loops.csv").rfind("# t_query_s", 0) == 0);
+}
+
+TEST_CASE("replay without --vocabulary has no loop closure and says so", "[cli][loop]") {
+  const std::string dir = test::make_temp_dir("loop_session_off");
+  std::string out, err;
+  REQUIRE(run({"replay", test::euroc_micro_dir(), "--out", dir, "--quiet", "--duration", "1"}, &out, &err) == kExitOk);
+  CHECK(loop_stat(slurp(dir + "/stats.json"), "enabled") == 0.0);
+  CHECK_FALSE(std::filesystem::exists(dir + "/trajectory_map.tum"));
+}
+
+TEST_CASE("replay --vocabulary refuses a missing or corrupt vocabulary, naming the file", "[cli][loop]") {
+  const std::string dir = test::make_temp_dir("loop_session_bad");
+  std::string out, err;
+  CHECK(run({"replay", test::euroc_micro_dir(), "--vocabulary", dir + "/none.voc", "--out", dir, "--quiet"}, &out, &err) ==
+        kExitFailure);
+  CHECK(err.find(dir + "/none.voc") != std::string::npos);
+  const std::string voc = micro_vocabulary(dir);
+  std::string bytes = slurp(voc);
+  bytes[bytes.size() / 2] = static_cast<char>(bytes[bytes.size() / 2] ^ 0x5a);
+  std::ofstream(voc, std::ios::binary) << bytes;
+  CHECK(run({"replay", test::euroc_micro_dir(), "--vocabulary", voc, "--out", dir, "--quiet"}, &out, &err) == kExitFailure);
+  CHECK(err.find(voc) != std::string::npos);
+  CHECK(err.find("not a usable vocabulary") != std::string::npos);
+}
+
+}  // namespace ums::cli
