@@ -13,9 +13,11 @@ constexpr const char* kUsage = R"(umsvins: stereo visual-inertial odometry (UMS-
 usage: umsvins <command> [options]
 
   replay <dataset> [--config F] [--out DIR] [--start S] [--duration S] [--realtime]
-                   [--frontend-only] [--quiet] [--deterministic] [--mavlink ...]
+                   [--frontend-only] [--quiet] [--deterministic] [--vocabulary F] [--mavlink ...]
       Run on an EuRoC-layout folder (the one holding mav0/). Writes DIR/stats.json
       (and DIR/trajectory.tum, DIR/report.html where those stages exist). Default DIR: out/replay.
+      --vocabulary F: loop closure with that vocabulary (umsvins vocab train): also writes
+      DIR/trajectory_map.tum (poses in the map frame) and DIR/loops.csv (docs/loop-closure.md).
       --deterministic: solver rounds bounded by iterations, not wall time (same result anywhere).
       MAVLink (replay and live): --mavlink udp:HOST:PORT|serial:PATH[:BAUD] sends ODOMETRY to a
       flight controller (docs/mavlink.md); --mavlink-rate HZ (default 30), --mavlink-imu-rate,
