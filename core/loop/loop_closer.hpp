@@ -57,7 +57,13 @@ struct LoopOptions {
   double loop_sigma_p_m = 0.03;        // loop edge (robust)
   double loop_sigma_yaw_deg = 0.5;
   LoopVerifierOptions verifier;
-  PoseGraphOptions graph;
+  // Loop edges passed the gates (the drift budget among them): the robust loss only guards
+  // against a loop far beyond them, 10 sigma = 0.3 m.
+  PoseGraphOptions graph = [] {
+    PoseGraphOptions g;
+    g.loop_loss_scale = 10.0;
+    return g;
+  }();
   void validate() const;               // std::invalid_argument naming the field
 };
 
