@@ -152,7 +152,10 @@ void Estimator::add_frame(const FrameFeatures& ff, EstimatorOutput* out, Estimat
   guard_divergence(f);
   if (mode_ != EstimatorMode::kImuOnly || !window_->empty()) set_nav_from(window_->newest());
   write_output(ff, f, out);
+  settled_ = kNoFrame;
   end_frame(f, timing);
+  last_output_.settled_frame = settled_;
+  if (out != nullptr) out->settled_frame = settled_;
   timing->backend_ms = static_cast<float>(ms_since(t0));
 }
 

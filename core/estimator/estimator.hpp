@@ -79,6 +79,11 @@ struct EstimatorOutput {
   // The odometry frame's epoch (MarginalizedKeyframe::odometry_epoch): resets and re-levellings
   // only, not the world placements that reset_counter also counts.
   std::uint32_t odometry_epoch = 0;
+  // The frame this frame's window slide made permanent: it stays until it leaves as the oldest
+  // (then it reaches the KeyframeSink). It is the previous frame when this one is a keyframe or
+  // the window was not yet full (VINS's rule: a non-keyframe replaces the second newest), else
+  // kNoFrame. A keyframe database describes that frame's image, not this one's.
+  FrameId settled_frame = kNoFrame;
 };
 
 // Wall time of the back-end stages of one frame (ms).
@@ -175,6 +180,7 @@ class Estimator {
   Eigen::Vector3d vo_velocity_ = Eigen::Vector3d::Zero();
   NavState last_odom_;           // the last output's state in the odometry frame (divergence fallback)
   EstimatorOutput last_output_;
+  FrameId settled_ = kNoFrame;  // this frame's slide made it permanent (EstimatorOutput::settled_frame)
 };
 
 }  // namespace ums

@@ -190,7 +190,11 @@ void Estimator::reset_window(bool keep_newest) {
 // otherwise the second newest frame is dropped, its IMU interval merged into the newest one's,
 // and only removed from the prior if the prior holds it.
 void Estimator::slide_window(EstimatorTiming* timing) {
-  if (window_->size() < options_.window_size) return;
+  const int frames = window_->size();
+  if (frames >= 2 && (frames < options_.window_size || window_->newest().keyframe)) {
+    settled_ = window_->at(frames - 2).id;
+  }
+  if (frames < options_.window_size) return;
   const auto t0 = std::chrono::steady_clock::now();
   WindowFrame& newest = window_->newest();
   const bool vio = mode_ == EstimatorMode::kVio;

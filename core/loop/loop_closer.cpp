@@ -66,6 +66,7 @@ void LoopOptions::validate() const {
   need(odom_sigma_yaw_deg > 0.0 && odom_sigma_yaw_deg_per_m >= 0.0, "odom_sigma_yaw_deg", odom_sigma_yaw_deg);
   need(loop_interval_s >= 0.0, "loop_interval_s", loop_interval_s);
   need(loop_sigma_p_m > 0.0 && loop_sigma_yaw_deg > 0.0, "loop_sigma_p_m", loop_sigma_p_m);
+  need(verifier.min_matches >= 4, "verifier.min_matches", verifier.min_matches);
   need(verifier.max_hamming > 0 && verifier.max_hamming < 256, "verifier.max_hamming", verifier.max_hamming);
   need(verifier.ransac_iterations >= 1, "verifier.ransac_iterations", verifier.ransac_iterations);
   need(verifier.inlier_rad > 0.0, "verifier.inlier_rad", verifier.inlier_rad);
@@ -95,9 +96,10 @@ void LoopCloser::on_keyframe_image(FrameId id, std::int64_t /*t_ns*/, const Imag
                                    const FrameFeatures& features) {
   Pending& p = pending_[pending_next_];
   pending_next_ = (pending_next_ + 1) % kPending;
-  p.id = id;
+  p.id = kNoFrame;
   p.n = 0;
-  if (!describer_.set_image(left)) return;
+  if (!describer_.set_image(left)) return;  // the keyframe will count as without an image
+  p.id = id;
   for (const FeatureObservation& f : features.features) {
     if (!f.has_left()) continue;
     if (!describer_.describe(f.uv_left_px.x(), f.uv_left_px.y(), &p.descriptor[p.n])) continue;
@@ -219,7 +221,12 @@ void LoopCloser::query(std::uint32_t slot) {
   // DBoW2's normalisation: a candidate must look at least this much like the query as the
   // query's own predecessor does (a textureless view scores low against everything).
   float prev_score = 1.0f;
-  if (q.prev >= 0 && db_->at(q.prev).indexed) prev_score = bow_score(q.bow, db_->at(q.prev).bow);
+  for (std::int32_t s = q.prev; s >= 0 && db_->at(s).session == q.session; s = db_->at(s).prev) {
+    if (db_->at(s).indexed) {
+      prev_score = bow_score(q.bow, db_->at(s).bow);
+      break;
+    }
+  }
   const std::int64_t cutoff_ns = q.t_ns - static_cast<std::int64_t>(options_.recent_s * 1e9);
   auto allowed = [&](std::uint32_t s) {
     const KeyframeRecord& c = db_->at(s);

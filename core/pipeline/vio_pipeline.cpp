@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstring>
 
 #include "core/math/so3.hpp"
 
@@ -14,6 +15,8 @@ VioPipeline::VioPipeline(const VioPipelineOptions& options, const FrontendOption
       frontend_(frontend, rig),
       estimator_(options.frontend_only ? nullptr : new Estimator(estimator, rig)),
       features_(new FrameFeatures()),
+      prev_left_(new std::uint8_t[static_cast<std::size_t>(capacity::kMaxImageWidth) * capacity::kMaxImageHeight]),
+      prev_features_(new FrameFeatures()),
       q_b_c0_(rig.cam[0].T_b_c.rotation()) {}
 
 VioPipeline::~VioPipeline() = default;
@@ -77,11 +80,27 @@ void VioPipeline::run_estimator(const StereoFrame& frame) {
   const EstimatorOutput& est = record_.estimate;
   if (est.keyframe) ++counters_.keyframes;
   if (est.valid && pose_sink_ != nullptr) pose_sink_->on_frame_pose(est);
-  // A frame the estimator refused (out of order) repeats the previous output: not a keyframe.
+  // A frame the estimator refused (out of order) repeats the previous output: nothing settled.
   const bool processed = estimator_->stats().frames_out_of_order == refused_before;
-  if (est.keyframe && processed && keyframe_sink_ != nullptr) {
-    keyframe_sink_->on_keyframe_image(est.frame_id, est.t_ns, frame.left, *features_);
+  if (processed && keyframe_sink_ != nullptr) hand_on_settled(est, frame);
+}
+
+void VioPipeline::hand_on_settled(const EstimatorOutput& est, const StereoFrame& frame) {
+  if (est.settled_frame != kNoFrame && est.settled_frame == prev_id_) {
+    keyframe_sink_->on_keyframe_image(prev_id_, prev_t_ns_, prev_view_, *prev_features_);
   }
+  // Keep this frame: the next frame's slide decides whether it stays in the window.
+  prev_id_ = kNoFrame;
+  const ImageView& left = frame.left;
+  if (!left.valid() || left.width > capacity::kMaxImageWidth || left.height > capacity::kMaxImageHeight) return;
+  for (int y = 0; y < left.height; ++y) {
+    std::memcpy(prev_left_.get() + static_cast<std::size_t>(y) * static_cast<std::size_t>(left.width), left.row(y),
+                static_cast<std::size_t>(left.width));
+  }
+  prev_view_ = ImageView{prev_left_.get(), left.width, left.height, left.width};
+  *prev_features_ = *features_;
+  prev_id_ = est.frame_id;
+  prev_t_ns_ = est.t_ns;
 }
 
 }  // namespace ums

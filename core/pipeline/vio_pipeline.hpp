@@ -6,10 +6,12 @@
 //              -> PoseSink::on_imu_pose (once a pose exists)
 //   on_stereo: + rig td_s (the only place the camera-IMU offset is applied) -> Frontend (with the
 //              hint) -> Estimator::add_frame -> PoseSink::on_frame_pose (when valid),
-//              KeyframeImageSink::on_keyframe_image (when a keyframe)
+//              KeyframeImageSink::on_keyframe_image (the previous frame, when this frame's window
+//              slide made it permanent: EstimatorOutput::settled_frame)
 //
-// It owns the saturation element, the front end, the estimator (none when frontend_only) and one
-// frame's features, all allocated in the constructor; on_imu / on_stereo allocate nothing. It
+// It owns the saturation element, the front end, the estimator (none when frontend_only), one
+// frame's features and, while a keyframe image sink is set, a copy of the previous frame's left
+// image and features (the frame a window slide may settle), all allocated in the constructor; on_imu / on_stereo allocate nothing. It
 // owns no thread, no file and no clock of its own (the board times and counts around it); the
 // caller pushes in time order from one thread. What the last frame did (status, features, the
 // estimate, stage timings) stays readable until the next on_stereo.
@@ -85,6 +87,7 @@ class VioPipeline final : public MeasurementSink {
   void integrate_hint(const ImuSample& sample, const ImuSample& clipped);
   void run_frontend(const StereoFrame& frame);
   void run_estimator(const StereoFrame& frame);
+  void hand_on_settled(const EstimatorOutput& est, const StereoFrame& frame);
 
   std::int64_t td_ns_;  // rig td_s: t_imu = t_cam + td
   SaturationElement saturation_;
@@ -93,6 +96,12 @@ class VioPipeline final : public MeasurementSink {
   std::unique_ptr<FrameFeatures> features_;  // one frame's features, allocated once
   PoseSink* pose_sink_ = nullptr;
   KeyframeImageSink* keyframe_sink_ = nullptr;
+  // The previous frame, kept for the keyframe image sink.
+  std::unique_ptr<std::uint8_t[]> prev_left_;
+  std::unique_ptr<FrameFeatures> prev_features_;
+  ImageView prev_view_;
+  FrameId prev_id_ = kNoFrame;
+  std::int64_t prev_t_ns_ = 0;
   VioPipelineCounters counters_;
   VioFrameRecord record_;
   std::int64_t last_imu_t_ns_ = -1;

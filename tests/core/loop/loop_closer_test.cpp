@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <memory>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "profiling/alloc_counter.hpp"
@@ -386,14 +387,13 @@ TEST_CASE("LoopCloser: a circle back to walls never seen closes no loop; every c
   CHECK(closer.num_events() == 0);
   CHECK(closer.corrections() == 0);
   CHECK(st.queries == flight->keyframes.size());  // no loop, so no query skipped
-  // Keyframes more than 20 s (40 keyframes) after the first have candidates: 31 queries x 3.
+  // Keyframes 41-69 are more than 20 s after the first: up to 3 candidates each (84 measured).
   CHECK(st.candidates >= 60);
   CHECK(total_rejected(st) == st.candidates);
   Eigen::Isometry3d T_map_odom;
   REQUIRE(closer.map_from_odometry(0, &T_map_odom));  // the first levelled frame is the map
   CHECK(T_map_odom.isApprox(Eigen::Isometry3d::Identity()));
 }
-
 
 TEST_CASE("LoopCloser: keyframes not levelled, without an image or with few features are counted and not indexed", "[loop]") {
   Scenario s;
@@ -504,8 +504,9 @@ TEST_CASE("LoopCloser: describing, keeping, querying, verifying and closing a lo
   AllocScope scope;
   for (const auto& k : flight->keyframes) feed(&closer, *k);
   const auto allocations = scope.allocations();
-  INFO("counter available " << alloc_counter_available() << ": allocations " << allocations << " (" << scope.bytes() << " bytes) over " << flight->keyframes.size()
-                      << " keyframes; footprint " << closer.footprint_bytes() << " bytes");
+  INFO("counter available " << alloc_counter_available() << ": allocations " << allocations << " ("
+                             << scope.bytes() << " bytes) over " << flight->keyframes.size()
+                             << " keyframes; footprint " << closer.footprint_bytes() << " bytes");
   REQUIRE(closer.stats().accepted >= 1);  // the count covered a verification and a pose-graph solve
   if (alloc_counter_available()) CHECK(allocations == 0);
 }
