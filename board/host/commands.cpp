@@ -24,7 +24,7 @@ usage: umsvins <command> [options]
       --mavlink-vision (also VISION_POSITION/SPEED_ESTIMATE), --mavlink-sysid N (default 1).
       Every ODOMETRY is logged in DIR/mavlink_sent.csv. Use --realtime to feed a live receiver.
   simulate [--trajectory F] [--scenario NAME] [--seed N] [--start S] [--duration S]
-           [--camera euroc|d455] [--max-frames N] [--exposure-change]
+           [--camera euroc|d455] [--max-frames N] [--exposure-change] [--blackout-s S]
            [--style procedural|photo] [--texture-dataset DIR] [--exposure-ms MS] --out DIR
       Write a synthetic EuRoC-layout stereo+IMU dataset (scenarios: nominal, standstill-start,
       uniform-start, dark-start, textureless, impulses, right-dropout, blackout). --style photo: a second,

@@ -10,7 +10,7 @@ namespace ums::cli {
 int run_simulate(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
   const Args args("simulate", argv, {"exposure-change", "quiet"},
                   {"trajectory", "scenario", "seed", "out", "duration", "start", "camera", "max-frames", "style",
-                   "texture-dataset", "exposure-ms"});
+                   "texture-dataset", "exposure-ms", "blackout-s"});
   args.require_positionals(0, "");
   sim::SimOptions options;
   options.out_dir = args.require("out");
@@ -38,6 +38,7 @@ int run_simulate(const std::vector<std::string>& argv, std::ostream& out, std::o
   }
   options.texture_dataset = args.get_or("texture-dataset", "");
   options.exposure.exposure_ms = args.get_double("exposure-ms", options.exposure.exposure_ms);
+  options.blackout_s = args.get_double("blackout-s", options.blackout_s);
   if (options.style == sim::SimStyle::kPhoto && options.texture_dataset.empty()) {
     // A failure (exit 1), not a usage slip: the photo style cannot run without real images.
     err << "umsvins simulate: --style photo needs --texture-dataset DIR (an EuRoC dataset folder holding "

@@ -65,6 +65,7 @@ void LoopOptions::validate() const {
   need(odom_sigma_p_m > 0.0 && odom_sigma_p_per_m >= 0.0, "odom_sigma_p_m", odom_sigma_p_m);
   need(odom_sigma_yaw_deg > 0.0 && odom_sigma_yaw_deg_per_m >= 0.0, "odom_sigma_yaw_deg", odom_sigma_yaw_deg);
   need(loop_interval_s >= 0.0, "loop_interval_s", loop_interval_s);
+  need(blind_sigma_scale >= 1.0, "blind_sigma_scale", blind_sigma_scale);
   need(loop_sigma_p_m > 0.0 && loop_sigma_yaw_deg > 0.0, "loop_sigma_p_m", loop_sigma_p_m);
   need(verifier.min_matches >= 4, "verifier.min_matches", verifier.min_matches);
   need(verifier.max_hamming > 0 && verifier.max_hamming < 256, "verifier.max_hamming", verifier.max_hamming);
@@ -341,8 +342,10 @@ bool LoopCloser::solve_graph() {
     if (prev_node >= 0 && db_->at(prev_slot).session == r.session) {
       const Eigen::Isometry3d T_i_j = db_->at(prev_slot).T_odom_b.inverse() * r.T_odom_b;
       const double d_m = T_i_j.translation().norm();
-      graph_->add_edge(prev_node, node, T_i_j, options_.odom_sigma_p_m + options_.odom_sigma_p_per_m * d_m,
-                       (options_.odom_sigma_yaw_deg + options_.odom_sigma_yaw_deg_per_m * d_m) / kDegPerRad,
+      const std::size_t seen = std::min(db_->at(prev_slot).features.size(), r.features.size());
+      const double scale = seen < static_cast<std::size_t>(options_.min_features) ? options_.blind_sigma_scale : 1.0;
+      graph_->add_edge(prev_node, node, T_i_j, scale * (options_.odom_sigma_p_m + options_.odom_sigma_p_per_m * d_m),
+                       scale * (options_.odom_sigma_yaw_deg + options_.odom_sigma_yaw_deg_per_m * d_m) / kDegPerRad,
                        EdgeKind::kOdometry);
     }
     prev_node = node;

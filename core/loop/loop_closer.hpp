@@ -54,6 +54,10 @@ struct LoopOptions {
   double odom_sigma_p_per_m = 0.01;
   double odom_sigma_yaw_deg = 0.02;
   double odom_sigma_yaw_deg_per_m = 0.1;
+  // An odometry edge touching a keyframe with fewer than min_features 3D features was flown on
+  // the IMU (vision lost: dark, blackout): its sigmas times this, so the first loop afterwards
+  // moves the map to where the images say instead of trusting the dead reckoning.
+  double blind_sigma_scale = 100.0;
   double loop_sigma_p_m = 0.03;        // loop edge (robust)
   double loop_sigma_yaw_deg = 0.5;
   LoopVerifierOptions verifier;

@@ -222,6 +222,7 @@ bool SimOptions::validate(std::string* error) const {
   if (!(imu_rate_hz >= camera_rate_hz && imu_rate_hz <= 2000.0)) return bad("simulate: imu_rate_hz must be in [camera rate, 2000] Hz");
   if (!(gravity_m_s2 > 0.0)) return bad("simulate: gravity_m_s2 must be > 0");
   if (!(start_s >= 0.0)) return bad("simulate: start_s must be >= 0");
+  if (!(blackout_s > 0.0 && blackout_s <= 120.0)) return bad("simulate: --blackout-s must be in (0, 120] s");
   if (!(initial_gyro_bias_sigma_rad_s >= 0.0 && initial_accel_bias_sigma_m_s2 >= 0.0)) return bad("simulate: bias sigmas must be >= 0");
   if (style == SimStyle::kPhoto) {
     if (texture_dataset.empty()) {
@@ -447,7 +448,8 @@ void write_events(const SimOptions& o, const SimTrajectory& tr, const ImuTrack& 
   }
   if (o.scenario == Scenario::kBlackout) {
     const auto mid_ns = tr.t_begin_ns + static_cast<std::int64_t>(mid_s * 1e9);
-    ev << mid_ns - 1'000'000'000LL << ",blackout_begin\n" << mid_ns + 1'000'000'000LL << ",blackout_end\n";
+    const auto half_ns = static_cast<std::int64_t>(o.blackout_s * 0.5e9);
+    ev << mid_ns - half_ns << ",blackout_begin\n" << mid_ns + half_ns << ",blackout_end\n";
   }
   ev << tr.t_end_ns << ",end\n";
   if (!ev) throw std::runtime_error(o.out_dir + "/sim_events.csv: write failed");
@@ -502,7 +504,7 @@ int simulate(const SimOptions& o, std::string* error, const ProgressCallback& pr
       if (o.scenario == Scenario::kRightDropout && ts >= mid_s - 2.0 && ts < mid_s + 2.0) {
         std::fill(right.begin(), right.end(), 0);
       }
-      if (o.scenario == Scenario::kBlackout && ts >= mid_s - 1.0 && ts < mid_s + 1.0) {
+      if (o.scenario == Scenario::kBlackout && ts >= mid_s - 0.5 * o.blackout_s && ts < mid_s + 0.5 * o.blackout_s) {
         std::fill(left.begin(), left.end(), 0);
         std::fill(right.begin(), right.end(), 0);
       }

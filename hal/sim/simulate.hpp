@@ -41,7 +41,7 @@ enum class Scenario : std::uint8_t {
   kTextureless,      // walls and ceiling textureless (floor and boxes keep texture)
   kImpulses,         // single-sample IMU spikes (30-80 m/s^2, 5-10 rad/s) at the highest yaw rates
   kRightDropout,     // right camera blank (black) for 4 s mid-flight
-  kBlackout,         // both cameras black for 2 s mid-flight (vision lost, then back)
+  kBlackout,         // both cameras black for SimOptions::blackout_s (2 s) mid-flight (vision lost, then back)
 };
 bool parse_scenario(const std::string& name, Scenario* scenario);
 const char* scenario_name(Scenario scenario);
@@ -78,6 +78,7 @@ struct SimOptions {
   double initial_gyro_bias_sigma_rad_s = 0.002;   // per-axis std of the initial gyro bias, rad/s
   double initial_accel_bias_sigma_m_s2 = 0.02;    // per-axis std of the initial accel bias, m/s^2
   bool exposure_change = false;       // slow exposure oscillation, +-35 % over 8 s
+  double blackout_s = 2.0;            // s, kBlackout: both cameras black this long, centred mid-flight
   int max_frames = -1;                // render only the first N pairs (tests); < 0: all
   WorldOptions world;                 // procedural style's world
   RenderOptions render;
