@@ -31,6 +31,14 @@ LoopSession::LoopSession(const std::filesystem::path& vocabulary, const AppConfi
   std::fputs("# t_s x y z qx qy qz qw (body = IMU in the map frame: T_map_odom * T_odom_b; umsvins)\n", map_file_);
 }
 
+void LoopSession::load_map(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error(path.string() + ": cannot open the map");
+  const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  closer_->load_map(bytes, path.string());
+  loaded_map_path_ = path.string();
+}
+
 LoopSession::~LoopSession() {
   if (map_file_ != nullptr) std::fclose(map_file_);
 }
@@ -80,7 +88,16 @@ bool LoopSession::finish() {
     csv << line;
   }
   csv.flush();
-  return ok && static_cast<bool>(csv);
+  ok = ok && static_cast<bool>(csv);
+  if (!save_map_path_.empty()) {
+    const std::vector<std::uint8_t> bytes = closer_->save_map();
+    std::ofstream map(save_map_path_, std::ios::binary);
+    map.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+    map.flush();
+    ok = ok && static_cast<bool>(map);
+    saved_map_bytes_ = bytes.size();
+  }
+  return ok;
 }
 
 void LoopSession::write_stats(JsonWriter& w) const {
@@ -112,6 +129,10 @@ void LoopSession::write_stats(JsonWriter& w) const {
       .value("max_correction_m", s.max_correction_m, 4)
       .value("max_pose_graph_ms", s.max_pose_graph_ms, 3)
       .value("map_poses", map_poses_)
+      .value("loaded_map", loaded_map_path_)
+      .value("loaded_keyframes", static_cast<std::uint64_t>(closer_->loaded_keyframes()))
+      .value("saved_map", save_map_path_.string())
+      .value("saved_map_bytes", static_cast<std::uint64_t>(saved_map_bytes_))
       .value("peak_bytes", static_cast<std::uint64_t>(closer_->footprint_bytes()))
       .end_object();
 }
@@ -119,8 +140,16 @@ void LoopSession::write_stats(JsonWriter& w) const {
 std::unique_ptr<LoopSession> loop_from_args(const Args& args, const AppConfig& config,
                                             const std::filesystem::path& out_dir) {
   const std::optional<std::string> vocabulary = args.get("vocabulary");
-  if (!vocabulary) return nullptr;
-  return std::make_unique<LoopSession>(*vocabulary, config, out_dir);
+  if (!vocabulary) {
+    if (args.get("load-map") || args.get("save-map")) {
+      throw UsageError("umsvins: --load-map and --save-map need --vocabulary (loop closure)");
+    }
+    return nullptr;
+  }
+  auto session = std::make_unique<LoopSession>(*vocabulary, config, out_dir);
+  if (const auto load = args.get("load-map")) session->load_map(*load);
+  if (const auto save = args.get("save-map")) session->save_map_to(*save);
+  return session;
 }
 
 }  // namespace ums::cli

@@ -5,7 +5,9 @@
 // odometry), loops.csv (every accepted loop with its size) and stats.json's "loop" object.
 //
 // Flags: --vocabulary F turns loop closure on (no vocabulary, no loop closure: the outputs are
-// not written and stats.json says "loop": {"enabled": false}).
+// not written and stats.json says "loop": {"enabled": false}). --load-map F starts from a map
+// saved by an earlier run (the run joins it at its first verified loop); --save-map F writes the
+// map at the end. Both need --vocabulary.
 
 #include <cstdint>
 #include <cstdio>
@@ -31,6 +33,10 @@ class LoopSession final : public PoseSink {
  public:
   LoopSession(const std::filesystem::path& vocabulary, const AppConfig& config,
               const std::filesystem::path& out_dir);
+  // Start-up, before the first keyframe: std::runtime_error naming the file and the reason.
+  void load_map(const std::filesystem::path& path);
+  // Written by finish().
+  void save_map_to(const std::filesystem::path& path) { save_map_path_ = path; }
   ~LoopSession() override;
   LoopSession(const LoopSession&) = delete;
   LoopSession& operator=(const LoopSession&) = delete;
@@ -42,7 +48,8 @@ class LoopSession final : public PoseSink {
   void on_frame_pose(const EstimatorOutput& out) override;
   void on_imu_pose(std::int64_t, const NavState&) override {}
 
-  // Closes trajectory_map.tum, writes loops.csv; false when a write failed.
+  // Closes trajectory_map.tum, writes loops.csv and the map file (--save-map); false when a write
+  // failed.
   bool finish();
   void write_stats(JsonWriter& w) const;
   const loop::LoopCloser& closer() const { return *closer_; }
@@ -53,6 +60,9 @@ class LoopSession final : public PoseSink {
   std::filesystem::path out_dir_;
   std::filesystem::path map_path_;
   std::string vocabulary_path_;
+  std::string loaded_map_path_;
+  std::filesystem::path save_map_path_;
+  std::size_t saved_map_bytes_ = 0;
   loop::Vocabulary vocabulary_;
   std::unique_ptr<loop::LoopCloser> closer_;
   std::FILE* map_file_ = nullptr;

@@ -24,6 +24,20 @@ double angle_deg(const Eigen::Matrix3d& R) {
   return Eigen::AngleAxisd(R).angle() * kDegPerRad;
 }
 
+std::uint32_t hash_calibration(const RigCalibration& rig) {
+  std::uint32_t crc = 0;
+  for (const CameraCalibration& c : rig.cam) {
+    std::int64_t v[3 + 8 + 12] = {static_cast<std::int64_t>(c.model), c.width, c.height};
+    const double d[] = {c.fx, c.fy, c.cx, c.cy, c.distortion[0], c.distortion[1], c.distortion[2], c.distortion[3]};
+    int n = 3;
+    for (double x : d) v[n++] = std::llround(x * 1e6);
+    for (int r = 0; r < 3; ++r)
+      for (int k = 0; k < 4; ++k) v[n++] = std::llround(c.T_b_c.matrix()(r, k) * 1e6);
+    crc = crc32(reinterpret_cast<const std::uint8_t*>(v), sizeof(std::int64_t) * static_cast<std::size_t>(n), crc);
+  }
+  return crc;
+}
+
 }  // namespace
 
 // One keyframe's left-feature descriptors, waiting for the keyframe to leave the window.
@@ -89,6 +103,7 @@ LoopCloser::LoopCloser(const LoopOptions& options, const RigCalibration& rig, co
       loops_(new LoopEdge[capacity::kMaxLoopEdges]),
       events_(new LoopEvent[capacity::kMaxLoopEdges]) {
   if (vocabulary.empty()) throw std::invalid_argument("loop closure: the vocabulary is empty");
+  calibration_hash_ = hash_calibration(rig);
 }
 
 LoopCloser::~LoopCloser() = default;

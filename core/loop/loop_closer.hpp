@@ -17,6 +17,8 @@
 
 #include <cstdint>
 #include <memory>
+#include <string>
+#include <vector>
 
 #include <Eigen/Geometry>
 
@@ -128,6 +130,20 @@ class LoopCloser final : public KeyframeSink, public KeyframeImageSink {
   std::size_t num_events() const { return n_events_; }
   const LoopEvent& event(std::size_t i) const { return events_[i]; }
   const KeyframeDatabase& database() const { return *db_; }
+
+  // Map reuse: the keyframes placed in the map (poses, features, loops) as the bytes of a
+  // versioned file (magic, version, vocabulary checksum, calibration hash, counts, records, a
+  // CRC-32). Allocates: at shut-down only.
+  std::vector<std::uint8_t> save_map() const;
+  // Loads save_map()'s bytes into this closer before its first keyframe: the map's keyframes
+  // become the map frame, and the run's odometry is placed in it by its first verified loop.
+  // Throws std::runtime_error "<source>: not a usable map: <why>" (corrupt, truncated, another
+  // vocabulary or camera, over the capacities, not a fresh closer) and then changes nothing.
+  void load_map(const std::vector<std::uint8_t>& bytes, const std::string& source);
+  std::size_t loaded_keyframes() const { return loaded_keyframes_; }
+  // CRC-32 of the calibration values that descriptors and points depend on (both cameras'
+  // model, size, intrinsics, distortion and extrinsics at 1e-6).
+  std::uint32_t calibration_hash() const { return calibration_hash_; }
   std::size_t footprint_bytes() const;
 
  private:
@@ -142,6 +158,12 @@ class LoopCloser final : public KeyframeSink, public KeyframeImageSink {
   bool close_loop(std::uint32_t q_slot, std::uint32_t c_slot, const LoopGeometry& g);
   bool solve_graph();
   void reject(LoopGate g) { ++stats_.rejected_by[static_cast<int>(g)]; }
+  // Map files (loop_map.cpp).
+  void check_map_header(const std::vector<std::uint8_t>& bytes, const std::string& source,
+                        std::uint32_t* n_keyframes, std::uint32_t* n_loops) const;
+  void read_map_records(const std::vector<std::uint8_t>& bytes, const std::string& source,
+                        std::uint32_t n_keyframes, std::uint32_t n_loops, bool apply);
+  void commit_loaded(std::uint32_t slot);
 
   LoopOptions options_;
   const Vocabulary& vocabulary_;
@@ -169,6 +191,8 @@ class LoopCloser final : public KeyframeSink, public KeyframeImageSink {
   std::uint32_t session_ = 0;
   std::uint32_t epoch_ = 0;
   bool started_ = false;
+  std::uint32_t calibration_hash_ = 0;
+  std::size_t loaded_keyframes_ = 0;
   std::int64_t last_loop_t_ns_ = 0;
   bool any_loop_ = false;
   bool placed_[kSessions] = {};  // per session (mod kSessions): joined to the map

@@ -121,3 +121,73 @@ TEST_CASE("replay --vocabulary refuses a missing or corrupt vocabulary, naming t
 }
 
 }  // namespace ums::cli
+
+namespace ums::cli {
+
+// The micro sequence saved as a map, then replayed again with it: the second run finds itself
+// in the map at its first keyframe and its map poses are the first run's.
+TEST_CASE("replay --save-map / --load-map: the same flight again is placed in the saved map", "[cli][loop]") {
+  const std::string dir = test::make_temp_dir("loop_map");
+  const std::string voc = micro_vocabulary(dir);
+  const std::string map = dir + "/micro.map";
+  std::string out, err;
+  REQUIRE(run({"replay", test::euroc_micro_dir(), "--vocabulary", voc, "--save-map", map, "--out", dir + "/a", "--quiet",
+               "--deterministic"}, &out, &err) == kExitOk);
+  const std::string stats_a = slurp(dir + "/a/stats.json");
+  CHECK(loop_stat(stats_a, "saved_map_bytes") > 1000);
+  REQUIRE(run({"replay", test::euroc_micro_dir(), "--vocabulary", voc, "--load-map", map, "--out", dir + "/b", "--quiet",
+               "--deterministic"}, &out, &err) == kExitOk);
+  INFO(out << err);
+  const std::string stats_b = slurp(dir + "/b/stats.json");
+  CHECK(loop_stat(stats_b, "loaded_keyframes") == loop_stat(stats_a, "keyframes"));
+  CHECK(loop_stat(stats_b, "relocalizations") == 1);
+  const auto map_a = read_tum(dir + "/a/trajectory_map.tum");
+  const auto map_b = read_tum(dir + "/b/trajectory_map.tum");
+  REQUIRE(map_b.size() >= 40);
+  int compared = 0;
+  for (const auto& [t, pose] : map_b) {
+    if (map_a.count(t) == 0) continue;
+    const std::vector<double>& a = map_a.at(t);
+    CHECK(std::hypot(pose[0] - a[0], pose[1] - a[1], pose[2] - a[2]) < 0.005);  // m: same images, same place
+    ++compared;
+  }
+  CHECK(compared >= 40);
+}
+
+// Every malformed map is refused at start-up with the file's name and the reason.
+TEST_CASE("replay --load-map refuses corrupt, truncated, foreign and misplaced map files", "[cli][loop]") {
+  const std::string dir = test::make_temp_dir("loop_map_bad");
+  const std::string voc = micro_vocabulary(dir);
+  const std::string good = dir + "/good.map";
+  std::string out, err;
+  REQUIRE(run({"replay", test::euroc_micro_dir(), "--vocabulary", voc, "--save-map", good, "--out", dir + "/a", "--quiet",
+               "--duration", "2"}, &out, &err) == kExitOk);
+  const std::string bytes = slurp(good);
+  REQUIRE(bytes.size() > 100);
+  auto refused = [&](const std::string& name, const std::string& content, const std::string& reason,
+                     const std::string& vocabulary) {
+    const std::string path = dir + "/" + name;
+    std::ofstream(path, std::ios::binary) << content;
+    INFO(name);
+    CHECK(run({"replay", test::euroc_micro_dir(), "--vocabulary", vocabulary, "--load-map", path, "--out", dir + "/b",
+               "--quiet"}, &out, &err) == kExitFailure);
+    CHECK(err.find(path + ": not a usable map: " + reason) != std::string::npos);
+    INFO(err);
+  };
+  std::string flipped = bytes;
+  flipped[bytes.size() / 2] = static_cast<char>(flipped[bytes.size() / 2] ^ 0x01);
+  refused("flipped.map", flipped, "CRC mismatch", voc);
+  refused("truncated.map", bytes.substr(0, bytes.size() - 9), "CRC mismatch", voc);
+  refused("tiny.map", bytes.substr(0, 10), "truncated", voc);
+  std::string magic = bytes;
+  magic[0] = 'X';
+  refused("magic.map", magic, "no UMSMAP01 magic", voc);
+  REQUIRE(run({"vocab", "train", test::euroc_micro_dir(), "--out", dir + "/other.voc", "--k", "5", "--levels", "3",
+               "--every", "10"}, &out, &err) == kExitOk);
+  refused("foreign.map", bytes, "made with another vocabulary", dir + "/other.voc");
+  CHECK(run({"replay", test::euroc_micro_dir(), "--load-map", good, "--out", dir + "/c", "--quiet"}, &out, &err) ==
+        kExitUsage);
+  CHECK(err.find("--vocabulary") != std::string::npos);
+}
+
+}  // namespace ums::cli
