@@ -1,8 +1,10 @@
 #include "core/loop/loop_verifier.hpp"
 
+#include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 
 #include "core/estimator/geometry.hpp"
+#include "core/math/so3.hpp"
 
 namespace ums::loop {
 
@@ -123,10 +125,73 @@ bool LoopVerifier::refine(const KeyframeRecord& q, const KeyframeRecord& c, Loop
   Eigen::Isometry3d T = out->T_c_q;
   const PnpResult r = solve_pnp(m, n_, T_b_c, po, &T, best_mask_.get());
   if (!r.ok) return false;
+  out->inliers = count_inliers(q, c, T, mask_.get());
+  refine_both_ways(q, c, &T);
   out->T_c_q = T;
   out->inliers = count_inliers(q, c, T, mask_.get());
   out->rms_rad = r.rms_rad;
   return true;
+}
+
+namespace {
+
+// Tangent-plane bearing error (2 rows) of point p seen along unit bearing b: b's orthogonal
+// complement basis applied to p / |p|.
+Eigen::Vector2d bearing_error(const Eigen::Vector3d& b, const Eigen::Vector3d& p) {
+  const Eigen::Vector3d u = b.unitOrthogonal();
+  const Eigen::Vector3d v = b.cross(u);
+  const Eigen::Vector3d d = p.normalized();
+  return Eigen::Vector2d(u.dot(d), v.dot(d));
+}
+
+}  // namespace
+
+Eigen::Matrix<double, 6, 1> LoopVerifier::both_ways_residual_sum(const KeyframeRecord& q, const KeyframeRecord& c,
+                                                                const Eigen::Isometry3d& T_c_q,
+                                                                Eigen::Matrix<double, 6, 6>* H) const {
+  // Numeric Jacobians in the tangent of T_c_q (right perturbation [dtheta, dp]): small, off the
+  // frame path, and exact enough for a few Gauss-Newton steps.
+  H->setZero();
+  Eigen::Matrix<double, 6, 1> g = Eigen::Matrix<double, 6, 1>::Zero();
+  constexpr double kEps = 1e-6;
+  auto residual = [&](const Eigen::Isometry3d& T, const LoopFeature& fq, const LoopFeature& fc) {
+    Eigen::Vector4d r;
+    r.head<2>() = bearing_error(fc.bearing_c0.cast<double>(), T_c0_b_ * (T * fq.p_b.cast<double>()));
+    r.tail<2>() = bearing_error(fq.bearing_c0.cast<double>(), T_c0_b_ * (T.inverse() * fc.p_b.cast<double>()));
+    return r;
+  };
+  for (int k = 0; k < n_; ++k) {
+    if (!mask_[k]) continue;
+    const LoopFeature& fq = q.features[qi_[k]];
+    const LoopFeature& fc = c.features[ci_[k]];
+    const Eigen::Vector4d r0 = residual(T_c_q, fq, fc);
+    Eigen::Matrix<double, 4, 6> J;
+    for (int d = 0; d < 6; ++d) {
+      Eigen::Matrix<double, 6, 1> delta = Eigen::Matrix<double, 6, 1>::Zero();
+      delta[d] = kEps;
+      Eigen::Isometry3d T = T_c_q;
+      T.linear() = T_c_q.linear() * so3::exp(delta.head<3>());
+      T.translation() += T_c_q.linear() * delta.tail<3>();
+      J.col(d) = (residual(T, fq, fc) - r0) / kEps;
+    }
+    *H += J.transpose() * J;
+    g += J.transpose() * r0;
+  }
+  return g;
+}
+
+void LoopVerifier::refine_both_ways(const KeyframeRecord& q, const KeyframeRecord& c, Eigen::Isometry3d* T_c_q) const {
+  for (int it = 0; it < 5; ++it) {
+    Eigen::Matrix<double, 6, 6> H;
+    const Eigen::Matrix<double, 6, 1> g = both_ways_residual_sum(q, c, *T_c_q, &H);
+    const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> ldlt(H);
+    if (ldlt.info() != Eigen::Success) return;
+    const Eigen::Matrix<double, 6, 1> dx = -ldlt.solve(g);
+    if (!dx.allFinite()) return;
+    T_c_q->linear() = T_c_q->linear() * so3::exp(dx.head<3>());
+    T_c_q->translation() += T_c_q->linear() * dx.tail<3>();
+    if (dx.norm() < 1e-9) return;
+  }
 }
 
 bool LoopVerifier::verify(const KeyframeRecord& query, const KeyframeRecord& candidate, LoopGeometry* out) {

@@ -47,6 +47,11 @@ class LoopVerifier {
                     std::uint8_t* mask) const;
   bool ransac(const KeyframeRecord& q, const KeyframeRecord& c, Eigen::Isometry3d* T_c_q);
   bool refine(const KeyframeRecord& q, const KeyframeRecord& c, LoopGeometry* out);
+  // Gauss-Newton on the inliers' bearing errors in both keyframes (each keyframe's points seen
+  // from the other): both stereo depths count, so neither keyframe's depth errors set the pose.
+  void refine_both_ways(const KeyframeRecord& q, const KeyframeRecord& c, Eigen::Isometry3d* T_c_q) const;
+  Eigen::Matrix<double, 6, 1> both_ways_residual_sum(const KeyframeRecord& q, const KeyframeRecord& c,
+                                                    const Eigen::Isometry3d& T_c_q, Eigen::Matrix<double, 6, 6>* H) const;
 
   LoopVerifierOptions options_;
   Eigen::Isometry3d T_b_c0_;
