@@ -435,6 +435,16 @@ int render_pair(const Scene& scene, const SimTrajectory& tr, const SimOptions& o
   return n;
 }
 
+// The blackout in integer nanoseconds, so that the black frames and sim_events.csv agree exactly.
+struct BlackoutSpan {
+  std::int64_t begin_ns, end_ns;
+};
+BlackoutSpan blackout_span(const SimOptions& o, const SimTrajectory& tr) {
+  const std::int64_t mid_ns = tr.t_begin_ns + (tr.t_end_ns - tr.t_begin_ns) / 2;
+  const std::int64_t half_ns = std::llround(o.blackout_s * 0.5e9);
+  return {mid_ns - half_ns, mid_ns + half_ns};
+}
+
 void write_events(const SimOptions& o, const SimTrajectory& tr, const ImuTrack& imu, double mid_s) {
   std::ofstream ev(o.out_dir + "/sim_events.csv");
   ev << "#scenario " << scenario_name(o.scenario) << ", seed " << o.seed << ", style " << style_name(o.style)
@@ -447,9 +457,8 @@ void write_events(const SimOptions& o, const SimTrajectory& tr, const ImuTrack& 
     ev << mid_ns - 2'000'000'000LL << ",right_dropout_begin\n" << mid_ns + 2'000'000'000LL << ",right_dropout_end\n";
   }
   if (o.scenario == Scenario::kBlackout) {
-    const auto mid_ns = tr.t_begin_ns + static_cast<std::int64_t>(mid_s * 1e9);
-    const auto half_ns = static_cast<std::int64_t>(o.blackout_s * 0.5e9);
-    ev << mid_ns - half_ns << ",blackout_begin\n" << mid_ns + half_ns << ",blackout_end\n";
+    const BlackoutSpan span = blackout_span(o, tr);
+    ev << span.begin_ns << ",blackout_begin\n" << span.end_ns << ",blackout_end\n";
   }
   ev << tr.t_end_ns << ",end\n";
   if (!ev) throw std::runtime_error(o.out_dir + "/sim_events.csv: write failed");
@@ -486,6 +495,7 @@ int simulate(const SimOptions& o, std::string* error, const ProgressCallback& pr
     writer.open(o.out_dir, rig, true);
     write_imu(writer, imu);
     const double mid_s = 0.5 * static_cast<double>(tr.t_end_ns - tr.t_begin_ns) * 1e-9;
+    const BlackoutSpan blackout = blackout_span(o, tr);
     std::vector<std::uint8_t> left(static_cast<std::size_t>(rig.cam[0].width) * rig.cam[0].height);
     std::vector<std::uint8_t> right(static_cast<std::size_t>(rig.cam[1].width) * rig.cam[1].height);
     SimStats counts;
@@ -504,7 +514,7 @@ int simulate(const SimOptions& o, std::string* error, const ProgressCallback& pr
       if (o.scenario == Scenario::kRightDropout && ts >= mid_s - 2.0 && ts < mid_s + 2.0) {
         std::fill(right.begin(), right.end(), 0);
       }
-      if (o.scenario == Scenario::kBlackout && ts >= mid_s - 0.5 * o.blackout_s && ts < mid_s + 0.5 * o.blackout_s) {
+      if (o.scenario == Scenario::kBlackout && t >= blackout.begin_ns && t < blackout.end_ns) {
         std::fill(left.begin(), left.end(), 0);
         std::fill(right.begin(), right.end(), 0);
       }

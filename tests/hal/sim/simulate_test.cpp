@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <numeric>
 #include <string>
@@ -52,6 +53,20 @@ std::string sorted_first_file(const std::string& dir) {
   for (const auto& e : std::filesystem::directory_iterator(dir)) names.push_back(e.path().string());
   std::sort(names.begin(), names.end());
   return names.empty() ? std::string() : names.front();
+}
+
+// The stamp of `name` in a sim_events.csv ("t_ns,event" rows after '#' lines); -1 when absent.
+std::int64_t event_ns(const std::string& events, const std::string& name) {
+  std::size_t line = 0;
+  while (line < events.size()) {
+    const std::size_t end = std::min(events.find('\n', line), events.size());
+    const std::size_t comma = events.find(',', line);
+    if (events[line] != '#' && comma < end && events.compare(comma + 1, end - comma - 1, name) == 0) {
+      return std::stoll(events.substr(line, comma - line));
+    }
+    line = end + 1;
+  }
+  return -1;
 }
 
 double median(std::vector<double> v) {
@@ -223,6 +238,110 @@ TEST_CASE("same seed gives the same dataset and the right camera is blank during
   CHECK(*std::max_element(pix.begin(), pix.end()) == 0);
   REQUIRE(read_png(root + "/a/mav0/cam0/data/" + l[2], &pix, &w, &h, &err));
   CHECK(*std::max_element(pix.begin(), pix.end()) > 100);
+}
+
+// Blackout: both images all zero for exactly SimOptions::blackout_s, centred on the middle of the
+// run, and sim_events.csv names that span. Test-sized: the built-in trajectory cut to 1.2 s
+// (middle 0.6 s), 1 s of blackout, frames at 5 Hz so the span's ends fall between frames: frame
+// 0 (0 s) lit, 1-5 (0.2-1.0 s) black, 6 (1.2 s) lit again.
+TEST_CASE("blackout: both cameras black for exactly blackout_s around the middle; blackout_s > 0 enforced",
+          "[sim][scenario]") {
+  CHECK(SimOptions{}.blackout_s == 2.0);
+  const std::string root = ums::test::make_temp_dir("sim_blackout");
+  SimOptions o;
+  o.scenario = Scenario::kBlackout;
+  o.duration_s = 1.225;  // the spline ends on the last 50 ms knot inside the cut: 1.2 s
+  o.camera_rate_hz = 5.0;
+  o.blackout_s = 1.0;
+  o.world.texture_size = 256;
+  o.out_dir = root + "/ds";
+  std::string err;
+  const int rc = simulate(o, &err);
+  INFO(err);
+  REQUIRE(rc == 0);
+
+  const std::string events = slurp(o.out_dir + "/sim_events.csv");
+  INFO(events);
+  const std::int64_t begin_ns = event_ns(events, "begin"), end_ns = event_ns(events, "end");
+  const std::int64_t off_ns = event_ns(events, "blackout_begin"), on_ns = event_ns(events, "blackout_end");
+  REQUIRE(begin_ns > 0);
+  REQUIRE(off_ns > begin_ns);
+  REQUIRE(on_ns > off_ns);
+  REQUIRE(end_ns > on_ns);
+  CHECK(end_ns - begin_ns == 1'200'000'000LL);
+  CHECK(on_ns - off_ns == 1'000'000'000LL);                        // exactly blackout_s
+  CHECK(std::llabs((off_ns + on_ns) - (begin_ns + end_ns)) <= 2);  // centred on the run's middle
+
+  std::vector<std::string> names;
+  for (const auto& e : std::filesystem::directory_iterator(o.out_dir + "/mav0/cam0/data")) {
+    names.push_back(e.path().filename().string());
+  }
+  std::sort(names.begin(), names.end());
+  REQUIRE(names.size() == 7);
+  int black = 0, lit_before = 0, lit_after = 0;
+  for (const std::string& name : names) {
+    const std::int64_t t_ns = std::stoll(name.substr(0, name.find('.')));
+    const bool inside = t_ns >= off_ns && t_ns < on_ns;
+    std::vector<std::uint8_t> left, right;
+    int w = 0, h = 0;
+    REQUIRE(read_png(o.out_dir + "/mav0/cam0/data/" + name, &left, &w, &h, &err));
+    REQUIRE(read_png(o.out_dir + "/mav0/cam1/data/" + name, &right, &w, &h, &err));
+    const int max_left = *std::max_element(left.begin(), left.end());
+    const int max_right = *std::max_element(right.begin(), right.end());
+    INFO("frame " << name << ": " << (t_ns - begin_ns) * 1e-9 << " s into the run, max grey left " << max_left
+                  << ", right " << max_right);
+    if (inside) {
+      ++black;
+      CHECK(max_left == 0);
+      CHECK(max_right == 0);
+    } else {
+      (t_ns < off_ns ? lit_before : lit_after) += 1;
+      CHECK(max_left > 100);
+      CHECK(max_right > 100);
+    }
+  }
+  CHECK(black == 5);  // 1 s at 5 Hz
+  CHECK(lit_before == 1);
+  CHECK(lit_after == 1);
+
+  // A blackout needs a length: 0, negative and NaN are refused naming the command-line option;
+  // nothing is written.
+  for (double bad : {0.0, -1.0, std::nan("")}) {
+    SimOptions b = o;
+    b.blackout_s = bad;
+    b.out_dir = root + "/refused";
+    std::string why;
+    CHECK_FALSE(b.validate(&why));
+    CHECK(why.find("--blackout-s") != std::string::npos);
+    why.clear();
+    CHECK(simulate(b, &why) == 1);
+    CHECK(why.find("--blackout-s") != std::string::npos);
+    CHECK_FALSE(std::filesystem::exists(b.out_dir));
+  }
+  CHECK(o.validate(&err));
+}
+
+// The images and sim_events.csv use one integer span: a frame stamped exactly on blackout_begin
+// is black (they once disagreed: double seconds against integer nanoseconds left it lit).
+TEST_CASE("blackout: a frame stamped on blackout_begin is black", "[sim][scenario]") {
+  SimOptions o;
+  o.scenario = Scenario::kBlackout;
+  o.duration_s = 2.125;  // 2.1 s run: the blackout [0.05, 2.05) s starts on frame 1
+  o.blackout_s = 2.0;
+  o.max_frames = 2;
+  o.world.texture_size = 256;
+  o.out_dir = ums::test::make_temp_dir("sim_blackout_edge") + "/ds";
+  std::string err;
+  const int rc = simulate(o, &err);
+  INFO(err);
+  REQUIRE(rc == 0);
+  const std::int64_t off_ns = event_ns(slurp(o.out_dir + "/sim_events.csv"), "blackout_begin");
+  const std::string frame = o.out_dir + "/mav0/cam0/data/" + std::to_string(off_ns) + ".png";
+  REQUIRE(std::filesystem::exists(frame));
+  std::vector<std::uint8_t> left;
+  int w = 0, h = 0;
+  REQUIRE(read_png(frame, &left, &w, &h, &err));
+  CHECK(*std::max_element(left.begin(), left.end()) == 0);
 }
 
 // The procedural style is the estimator's reference: its output must not change when the
