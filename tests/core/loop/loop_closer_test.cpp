@@ -3,9 +3,11 @@
 // features are fixed points of that wall (so a revisit describes the same physical points from a
 // different pose), its observations carry stereo points with depth noise in a drifted odometry
 // frame. A 25 m circle that comes back to the first wall must close a loop whose relative pose is
-// right and whose map frame removes the planted drift; a circle that comes back to unseen walls
-// must close none; non-levelled and undescribed keyframes are counted and left out; a new odometry
-// session is unplaced until a loop relocalizes it; and feeding keyframes allocates nothing.
+// right and whose map frame removes the planted drift, also when the drift was planted during a
+// blackout (blind keyframes: the first loop must put the map where the images say); a circle
+// that comes back to unseen walls must close none; non-levelled and undescribed keyframes are
+// counted and left out; a new odometry session is unplaced until a loop relocalizes it; and
+// feeding keyframes allocates nothing.
 #include "core/loop/loop_closer.hpp"
 
 #include <catch2/catch.hpp>
@@ -268,14 +270,18 @@ Eigen::Isometry3d circle_pose(int k, int per_lap) {
 
 // Dead reckoning from truth[0] with every step's yaw off by yaw_drift_rad and a creep of
 // bias_m per step in the odometry frame (an accelerometer bias's): the 4-DoF drift of a VIO.
+// Only the steps into keyframes first_step..last_step drift; the others follow the truth's
+// increments exactly.
 std::vector<Eigen::Isometry3d> drifted(const std::vector<Eigen::Isometry3d>& truth, double yaw_drift_rad,
-                                       const Eigen::Vector3d& bias_m) {
+                                       const Eigen::Vector3d& bias_m, std::size_t first_step = 1,
+                                       std::size_t last_step = ~std::size_t{0}) {
   std::vector<Eigen::Isometry3d> odom{truth[0]};
   for (std::size_t k = 1; k < truth.size(); ++k) {
+    const bool drifts = k >= first_step && k <= last_step;
     const Eigen::Isometry3d T_rel = truth[k - 1].inverse() * truth[k];
     Eigen::Isometry3d T = odom.back();
-    T.translation() += odom.back().linear() * T_rel.translation() + bias_m;
-    T.linear() = Eigen::AngleAxisd(yaw_of(odom.back()) + yaw_of(truth[k]) - yaw_of(truth[k - 1]) + yaw_drift_rad,
+    T.translation() += odom.back().linear() * T_rel.translation() + (drifts ? bias_m : Eigen::Vector3d::Zero());
+    T.linear() = Eigen::AngleAxisd(yaw_of(odom.back()) + yaw_of(truth[k]) - yaw_of(truth[k - 1]) + (drifts ? yaw_drift_rad : 0.0),
                                    Eigen::Vector3d::UnitZ()).toRotationMatrix();
     odom.push_back(T);
   }
@@ -320,6 +326,71 @@ std::string rejections(const LoopStats& st) {
   for (int g = 0; g < static_cast<int>(LoopGate::kCount); ++g)
     s += std::string(to_string(static_cast<LoopGate>(g))) + " " + std::to_string(st.rejected_by[g]) + ", ";
   return s;
+}
+
+// The circle back to the first wall with a blackout: keyframes kBlindFirst..kBlindLast (10 of
+// them, 5 s, 4.2 m of the circle) see nothing (black image, no features, no observations), and
+// the dead reckoning through them drifts by 0.4 m (along odometry x) and 3 deg of yaw; before and
+// after it the odometry follows the truth exactly. At the return the 3 deg have also turned the
+// second half of the circle: the odometry is off by 0.80 m and 3 deg there.
+constexpr int kBlindFirst = 20, kBlindLast = 29;
+
+std::unique_ptr<Flight> blackout_flight(int n_return = 1) {
+  constexpr int kPerLap = 60;
+  constexpr int kBlind = kBlindLast - kBlindFirst + 1;
+  auto f = std::make_unique<Flight>();
+  for (int k = 0; k < kPerLap + n_return; ++k) f->truth.push_back(circle_pose(k, kPerLap));
+  f->odom = drifted(f->truth, 3.0 / kBlind * kDeg, Eigen::Vector3d(0.4 / kBlind, 0.0, 0.0), kBlindFirst, kBlindLast);
+  f->first_return = kPerLap;
+  Scenario s;
+  const Wall wall0 = wall_ahead(f->truth[0], 1);
+  for (int k = 0; k < kPerLap + n_return; ++k) {
+    const auto id = static_cast<FrameId>(100 + k);
+    if (k >= kBlindFirst && k <= kBlindLast) {  // a black image: no features, no observations
+      auto in = std::make_unique<KeyframeInput>();
+      in->id = in->keyframe->id = id;
+      in->t_ns = in->features->t_ns = in->keyframe->t_ns = static_cast<std::int64_t>(std::llround(kKeyframeDt_s * k * 1e9));
+      in->T_w_b = f->truth[k];
+      in->keyframe->gravity_aligned = true;
+      in->keyframe->T_odom_b = f->odom[k];
+      f->keyframes.push_back(std::move(in));
+      continue;
+    }
+    Wall w = wall_ahead(f->truth[k], 1000U + static_cast<std::uint32_t>(k));
+    if (k <= 1 || k >= kPerLap) w = wall0;
+    f->keyframes.push_back(s.keyframe(id, kKeyframeDt_s * k, f->truth[k], f->odom[k], w));
+  }
+  return f;
+}
+
+// The flight fed until its first accepted loop, and where that left the newest keyframe.
+struct FirstLoop {
+  bool closed = false;
+  std::size_t newest = 0;                                  // keyframe index: the loop's query
+  FrameId loop = kNoFrame;                                 // the keyframe it closed to
+  Eigen::Isometry3d error = Eigen::Isometry3d::Identity();  // truth^-1 * its map pose
+  std::uint64_t not_indexed = 0;                           // keyframes under min_features
+  std::string stats;
+};
+
+FirstLoop first_loop(const Flight& flight, const LoopOptions& options) {
+  LoopCloser closer(options, make_rig(), vocabulary());
+  FirstLoop r;
+  for (std::size_t k = 0; k < flight.keyframes.size() && closer.stats().accepted == 0; ++k) {
+    feed(&closer, *flight.keyframes[k]);
+    r.newest = k;
+  }
+  const LoopStats& st = closer.stats();
+  r.not_indexed = st.keyframes_not_indexed;
+  r.stats = "keyframes " + std::to_string(st.keyframes_in) + ", not indexed " + std::to_string(st.keyframes_not_indexed) +
+            ", queries " + std::to_string(st.queries) + ", candidates " + std::to_string(st.candidates) +
+            ", accepted " + std::to_string(st.accepted) + "; rejected: " + rejections(st);
+  Eigen::Isometry3d T_map_odom = Eigen::Isometry3d::Identity();
+  r.closed = st.accepted == 1 && closer.num_events() == 1 &&
+             closer.event(0).query == flight.keyframes[r.newest]->id && closer.map_from_odometry(0, &T_map_odom);
+  if (closer.num_events() > 0) r.loop = closer.event(0).loop;
+  r.error = flight.truth[r.newest].inverse() * (T_map_odom * flight.odom[r.newest]);
+  return r;
 }
 
 }  // namespace
@@ -375,6 +446,46 @@ TEST_CASE("LoopCloser: a circle back to the first wall closes a loop and the map
   // 60 edges (0.062 deg each), although the loops measured it to 0.02-0.04 deg.
   CHECK(error.translation().norm() < 0.05);
   CHECK(angle_deg(error.linear()) < 0.5 * angle_deg(planted.linear()));
+}
+
+TEST_CASE("LoopCloser: after a blackout the first loop puts the map where the images say (blind_sigma_scale)", "[loop]") {
+  const auto flight = blackout_flight();
+  const std::size_t back = static_cast<std::size_t>(flight->first_return);
+  const Eigen::Isometry3d planted = flight->truth[back].inverse() * flight->odom[back];
+  INFO("planted at the return: " << planted.translation().norm() << " m, " << angle_deg(planted.linear()) << " deg");
+  CHECK(planted.translation().norm() > 0.5);  // the 0.4 m plus the 3 deg turning the second half
+  CHECK(angle_deg(planted.linear()) == Approx(3.0).margin(0.01));
+
+  const FirstLoop blind = first_loop(*flight, LoopOptions{});
+  LoopOptions trusting;
+  trusting.blind_sigma_scale = 1.0;  // the dead reckoning through the blackout weighed as VIO
+  const FirstLoop seen = first_loop(*flight, trusting);
+  const double blind_m = blind.error.translation().norm(), blind_deg = angle_deg(blind.error.linear());
+  const double seen_m = seen.error.translation().norm(), seen_deg = angle_deg(seen.error.linear());
+  INFO("blind_sigma_scale 100: " << blind.stats << " keyframe " << blind.newest << " off by " << blind_m << " m, "
+                                 << blind_deg << " deg");
+  INFO("blind_sigma_scale 1: " << seen.stats << " keyframe " << seen.newest << " off by " << seen_m << " m, "
+                               << seen_deg << " deg");
+  // The blind keyframes are kept (they carry the odometry chain) but not indexed.
+  CHECK(blind.not_indexed == static_cast<std::uint64_t>(kBlindLast - kBlindFirst + 1));
+  // The same first loop both times: the first return keyframe, to wall 0.
+  REQUIRE(blind.closed);
+  REQUIRE(seen.closed);
+  CHECK(blind.newest == back);
+  CHECK(seen.newest == back);
+  CHECK((blind.loop == 100 || blind.loop == 101));
+  CHECK(seen.loop == blind.loop);
+  // Measured: of 0.80 m and 3.0 deg at the return, 100x blind sigmas leave 0.0014 m and 0.009 deg
+  // (the loop measurement's own error: the 11 edges touching a blind keyframe, ~0.6 m and 6 deg
+  // of sigma each, take the whole correction); trusting the blackout's dead reckoning leaves
+  // 0.18 m and 0.36 deg (the loop's 0.03 m / 0.5 deg sigmas against a chain of 60 stiff edges),
+  // over 100x the error.
+  CHECK(blind_m < 0.02);
+  CHECK(blind_deg < 0.1);
+  CHECK(seen_m > 0.1);
+  CHECK(seen_deg > 0.2);
+  CHECK(seen_m > 5.0 * blind_m);
+  CHECK(seen_m < planted.translation().norm());  // still a correction, only a smaller one
 }
 
 TEST_CASE("LoopCloser: a circle back to walls never seen closes no loop; every candidate's rejection is counted", "[loop]") {
