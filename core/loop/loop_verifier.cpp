@@ -68,7 +68,7 @@ int LoopVerifier::match(const KeyframeRecord& q, const KeyframeRecord& c) {
 }
 
 int LoopVerifier::count_inliers(const KeyframeRecord& q, const KeyframeRecord& c,
-                                const Eigen::Isometry3d& T_c_q, std::uint8_t* mask) const {
+                                const Eigen::Isometry3d& T_c_q, std::uint8_t* mask, double bound_rad) const {
   // A match is an inlier when each keyframe's point reprojects onto the other's observation.
   const Eigen::Isometry3d T_c0c_bq = T_c0_b_ * T_c_q;
   const Eigen::Isometry3d T_c0q_bc = T_c0_b_ * T_c_q.inverse();
@@ -78,7 +78,7 @@ int LoopVerifier::count_inliers(const KeyframeRecord& q, const KeyframeRecord& c
     const LoopFeature& fc = c.features[ci_[k]];
     const double e_c = angle_between(fc.bearing_c0.cast<double>(), T_c0c_bq * fq.p_b.cast<double>());
     const double e_q = angle_between(fq.bearing_c0.cast<double>(), T_c0q_bc * fc.p_b.cast<double>());
-    const bool in = e_c < options_.inlier_rad && e_q < options_.inlier_rad;
+    const bool in = e_c < bound_rad && e_q < bound_rad;
     mask[k] = in ? 1 : 0;
     n_in += in ? 1 : 0;
   }
@@ -101,7 +101,7 @@ bool LoopVerifier::ransac(const KeyframeRecord& q, const KeyframeRecord& c, Eige
     if ((src.col(1) - src.col(0)).cross(src.col(2) - src.col(0)).norm() < 1e-3) continue;
     Eigen::Isometry3d T;
     T.matrix() = Eigen::umeyama(src, dst, false);
-    const int n_in = count_inliers(q, c, T, mask_.get());
+    const int n_in = count_inliers(q, c, T, mask_.get(), options_.inlier_rad);
     if (n_in > best_inliers) {
       best_inliers = n_in;
       *T_c_q = T;
@@ -125,10 +125,14 @@ bool LoopVerifier::refine(const KeyframeRecord& q, const KeyframeRecord& c, Loop
   Eigen::Isometry3d T = out->T_c_q;
   const PnpResult r = solve_pnp(m, n_, T_b_c, po, &T, best_mask_.get());
   if (!r.ok) return false;
-  out->inliers = count_inliers(q, c, T, mask_.get());
+  out->inliers = count_inliers(q, c, T, mask_.get(), options_.inlier_rad);
   refine_both_ways(q, c, &T);
+  // Matches that fit only loosely (a wrong corner a few pixels off) still pull a least-squares
+  // fit: refine once more on those within a third of the inlier bound.
+  const int tight = count_inliers(q, c, T, mask_.get(), options_.inlier_rad / 3.0);
+  if (tight >= 8) refine_both_ways(q, c, &T);
   out->T_c_q = T;
-  out->inliers = count_inliers(q, c, T, mask_.get());
+  out->inliers = count_inliers(q, c, T, mask_.get(), options_.inlier_rad);
   out->rms_rad = r.rms_rad;
   return true;
 }
@@ -199,7 +203,7 @@ bool LoopVerifier::verify(const KeyframeRecord& query, const KeyframeRecord& can
   out->matches = match(query, candidate);
   if (out->matches < options_.min_matches) return false;
   if (!ransac(query, candidate, &out->T_c_q)) return false;
-  out->inliers = count_inliers(query, candidate, out->T_c_q, mask_.get());
+  out->inliers = count_inliers(query, candidate, out->T_c_q, mask_.get(), options_.inlier_rad);
   return refine(query, candidate, out);
 }
 

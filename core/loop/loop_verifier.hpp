@@ -44,7 +44,7 @@ class LoopVerifier {
  private:
   int match(const KeyframeRecord& query, const KeyframeRecord& candidate);
   int count_inliers(const KeyframeRecord& q, const KeyframeRecord& c, const Eigen::Isometry3d& T_c_q,
-                    std::uint8_t* mask) const;
+                    std::uint8_t* mask, double bound_rad) const;
   bool ransac(const KeyframeRecord& q, const KeyframeRecord& c, Eigen::Isometry3d* T_c_q);
   bool refine(const KeyframeRecord& q, const KeyframeRecord& c, LoopGeometry* out);
   // Gauss-Newton on the inliers' bearing errors in both keyframes (each keyframe's points seen
