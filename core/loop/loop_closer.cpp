@@ -110,6 +110,15 @@ LoopCloser::~LoopCloser() = default;
 
 void LoopCloser::on_keyframe_image(FrameId id, std::int64_t /*t_ns*/, const ImageView& left,
                                    const FrameFeatures& features) {
+  const auto start = std::chrono::steady_clock::now();
+  describe(id, left, features);
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  ++stats_.described;
+  stats_.describe_ms_sum += ms;
+  stats_.max_describe_ms = std::max(stats_.max_describe_ms, ms);
+}
+
+void LoopCloser::describe(FrameId id, const ImageView& left, const FrameFeatures& features) {
   Pending& p = pending_[pending_next_];
   pending_next_ = (pending_next_ + 1) % kPending;
   p.id = kNoFrame;
@@ -151,6 +160,14 @@ void LoopCloser::begin_session(std::uint32_t epoch) {
 }
 
 void LoopCloser::on_keyframe(const MarginalizedKeyframe& k) {
+  const auto start = std::chrono::steady_clock::now();
+  keep(k);
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  stats_.keyframe_ms_sum += ms;
+  stats_.max_keyframe_ms = std::max(stats_.max_keyframe_ms, ms);
+}
+
+void LoopCloser::keep(const MarginalizedKeyframe& k) {
   ++stats_.keyframes_in;
   if (!k.gravity_aligned) {
     ++stats_.keyframes_not_levelled;

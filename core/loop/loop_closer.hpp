@@ -96,6 +96,13 @@ struct LoopStats {
   std::uint64_t sessions = 0;              // odometry frames (resets) that reached the database
   double max_correction_m = 0.0;           // largest change of the newest keyframe's map pose
   double max_pose_graph_ms = 0.0;
+  // Wall time of the loop work per keyframe (describing its image; keeping, querying, verifying,
+  // and the pose graph when a loop closes), ms.
+  double keyframe_ms_sum = 0.0;
+  double max_keyframe_ms = 0.0;
+  std::uint64_t described = 0;             // keyframe images described
+  double describe_ms_sum = 0.0;
+  double max_describe_ms = 0.0;
 };
 
 struct LoopEvent {
@@ -151,6 +158,8 @@ class LoopCloser final : public KeyframeSink, public KeyframeImageSink {
   static constexpr std::uint32_t kSessions = 64;
   struct Pending;
 
+  void describe(FrameId id, const ImageView& left, const FrameFeatures& features);
+  void keep(const MarginalizedKeyframe& k);
   bool build_record(const MarginalizedKeyframe& k, std::uint32_t slot);
   void make_room();
   void query(std::uint32_t slot);
