@@ -31,6 +31,11 @@ LoopSession::LoopSession(const std::filesystem::path& vocabulary, const AppConfi
   std::fputs("# t_s x y z qx qy qz qw (body = IMU in the map frame: T_map_odom * T_odom_b; umsvins)\n", map_file_);
 }
 
+PoseSink* LoopSession::map_frame(PoseSink* next) {
+  map_frame_ = std::make_unique<loop::MapFramePoses>(*closer_, next);
+  return map_frame_.get();
+}
+
 void LoopSession::load_map(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw std::runtime_error(path.string() + ": cannot open the map");

@@ -17,6 +17,7 @@
 
 #include "board/config/app_config.hpp"
 #include "core/loop/loop_closer.hpp"
+#include "core/loop/map_frame_poses.hpp"
 #include "core/loop/vocabulary.hpp"
 #include "core/pipeline/pose_sink.hpp"
 #include "profiling/json_writer.hpp"
@@ -53,6 +54,9 @@ class LoopSession final : public PoseSink {
   bool finish();
   void write_stats(JsonWriter& w) const;
   const loop::LoopCloser& closer() const { return *closer_; }
+  // A consumer of the poses in the map frame (loop/map_frame_poses.hpp): pass the returned sink
+  // to the pipeline instead of `next`.
+  PoseSink* map_frame(PoseSink* next);
   std::uint64_t map_poses() const { return map_poses_; }
   const std::filesystem::path& map_trajectory_path() const { return map_path_; }
 
@@ -65,6 +69,7 @@ class LoopSession final : public PoseSink {
   std::size_t saved_map_bytes_ = 0;
   loop::Vocabulary vocabulary_;
   std::unique_ptr<loop::LoopCloser> closer_;
+  std::unique_ptr<loop::MapFramePoses> map_frame_;
   std::FILE* map_file_ = nullptr;
   std::uint64_t map_poses_ = 0;
   std::size_t startup_bytes_ = 0;

@@ -211,9 +211,12 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
     pipeline.set_state_output(states);
   }
   std::unique_ptr<MavlinkSession> mavlink = mavlink_from_args(args, config, out_dir);
-  if (mavlink != nullptr) pipeline.set_pose_consumer(&mavlink->output());
   std::unique_ptr<LoopSession> loop = pipeline.has_estimator() ? loop_from_args(args, config, out_dir) : nullptr;
   if (loop != nullptr) loop->attach(pipeline);
+  // With loop closure the flight controller gets the map frame (and a reset at each correction).
+  if (mavlink != nullptr) {
+    pipeline.set_pose_consumer(loop != nullptr ? loop->map_frame(&mavlink->output()) : &mavlink->output());
+  }
   const bool quiet = args.has("quiet");
   Progress progress("replay", static_cast<unsigned long>(reader.total_pairs_estimate()));
   const bool realtime = args.has("realtime");

@@ -136,8 +136,21 @@ TEST_CASE("replay --save-map / --load-map: the same flight again is placed in th
   const std::string stats_a = slurp(dir + "/a/stats.json");
   CHECK(loop_stat(stats_a, "saved_map_bytes") > 1000);
   REQUIRE(run({"replay", test::euroc_micro_dir(), "--vocabulary", voc, "--load-map", map, "--out", dir + "/b", "--quiet",
-               "--deterministic"}, &out, &err) == kExitOk);
+               "--deterministic", "--mavlink", "udp:127.0.0.1:14999"}, &out, &err) == kExitOk);
   INFO(out << err);
+  // The flight controller gets the map frame: its reset_counter steps at the re-levelling of the
+  // odometry (0 -> 1) and again when the relocalization places the run in the map (-> 2).
+  std::ifstream sent(dir + "/b/mavlink_sent.csv");
+  std::string line;
+  std::getline(sent, line);
+  std::vector<int> counters;
+  while (std::getline(sent, line)) {
+    std::stringstream fields(line);
+    std::string f;
+    for (int i = 0; i < 13; ++i) std::getline(fields, f, ',');
+    if (counters.empty() || counters.back() != std::stoi(f)) counters.push_back(std::stoi(f));
+  }
+  CHECK(counters == std::vector<int>{0, 1, 2});
   const std::string stats_b = slurp(dir + "/b/stats.json");
   CHECK(loop_stat(stats_b, "loaded_keyframes") == loop_stat(stats_a, "keyframes"));
   CHECK(loop_stat(stats_b, "relocalizations") == 1);
