@@ -14,12 +14,13 @@ usage: umsvins <command> [options]
 
   replay <dataset> [--config F] [--out DIR] [--start S] [--duration S] [--realtime]
                    [--frontend-only] [--quiet] [--deterministic] [--mavlink ...]
-                   [--vocabulary F [--load-map F] [--save-map F]]
+                   [--vocabulary F [--load-map F] [--save-map F] [--map-spread-s S]]
       Run on an EuRoC-layout folder (the one holding mav0/). Writes DIR/stats.json
       (and DIR/trajectory.tum, DIR/report.html where those stages exist). Default DIR: out/replay.
       --vocabulary F: loop closure with that vocabulary (umsvins vocab train): also writes
       DIR/trajectory_map.tum (poses in the map frame) and DIR/loops.csv (docs/loop-closure.md);
-      --save-map F writes the map at the end, --load-map F starts in a saved map's frame.
+      --save-map F writes the map at the end, --load-map F starts in a saved map's frame; with
+      --mavlink the map frame goes out, each correction a reset or, with --map-spread-s S, a ramp.
       --deterministic: solver rounds bounded by iterations, not wall time (same result anywhere).
       MAVLink (replay and live): --mavlink udp:HOST:PORT|serial:PATH[:BAUD] sends ODOMETRY to a
       flight controller (docs/mavlink.md); --mavlink-rate HZ (default 30), --mavlink-imu-rate,

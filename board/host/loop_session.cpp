@@ -32,7 +32,7 @@ LoopSession::LoopSession(const std::filesystem::path& vocabulary, const AppConfi
 }
 
 PoseSink* LoopSession::map_frame(PoseSink* next) {
-  map_frame_ = std::make_unique<loop::MapFramePoses>(*closer_, next);
+  map_frame_ = std::make_unique<loop::MapFramePoses>(*closer_, next, spread_s_);
   return map_frame_.get();
 }
 
@@ -150,14 +150,17 @@ std::unique_ptr<LoopSession> loop_from_args(const Args& args, const AppConfig& c
                                             const std::filesystem::path& out_dir) {
   const std::optional<std::string> vocabulary = args.get("vocabulary");
   if (!vocabulary) {
-    if (args.get("load-map") || args.get("save-map")) {
-      throw UsageError("umsvins: --load-map and --save-map need --vocabulary (loop closure)");
+    if (args.get("load-map") || args.get("save-map") || args.get("map-spread-s")) {
+      throw UsageError("umsvins: --load-map, --save-map and --map-spread-s need --vocabulary (loop closure)");
     }
     return nullptr;
   }
   auto session = std::make_unique<LoopSession>(*vocabulary, config, out_dir);
   if (const auto load = args.get("load-map")) session->load_map(*load);
   if (const auto save = args.get("save-map")) session->save_map_to(*save);
+  const double spread_s = args.get_double("map-spread-s", 0.0);
+  if (!(spread_s >= 0.0 && spread_s <= 60.0)) throw UsageError("umsvins: --map-spread-s must be in [0, 60] s");
+  session->set_map_spread_s(spread_s);
   return session;
 }
 

@@ -57,6 +57,8 @@ class LoopSession final : public PoseSink {
   // A consumer of the poses in the map frame (loop/map_frame_poses.hpp): pass the returned sink
   // to the pipeline instead of `next`.
   PoseSink* map_frame(PoseSink* next);
+  // --map-spread-s: corrections to the live output spread over this many seconds (0: a step).
+  void set_map_spread_s(double spread_s) { spread_s_ = spread_s; }
   std::uint64_t map_poses() const { return map_poses_; }
   const std::filesystem::path& map_trajectory_path() const { return map_path_; }
 
@@ -73,6 +75,7 @@ class LoopSession final : public PoseSink {
   std::FILE* map_file_ = nullptr;
   std::uint64_t map_poses_ = 0;
   std::size_t startup_bytes_ = 0;
+  double spread_s_ = 0.0;
 };
 
 // The session asked for by --vocabulary, or nullptr.

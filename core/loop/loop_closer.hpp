@@ -29,6 +29,7 @@
 #include "core/loop/inverted_index.hpp"
 #include "core/loop/keyframe_database.hpp"
 #include "core/loop/loop_verifier.hpp"
+#include "core/loop/map_frame_source.hpp"
 #include "core/loop/pose_graph.hpp"
 #include "core/loop/vocabulary.hpp"
 #include "core/pipeline/keyframe_image_sink.hpp"
@@ -114,7 +115,7 @@ struct LoopEvent {
   Eigen::Isometry3d T_loop_query = Eigen::Isometry3d::Identity();  // measured, body frames
 };
 
-class LoopCloser final : public KeyframeSink, public KeyframeImageSink {
+class LoopCloser final : public KeyframeSink, public KeyframeImageSink, public MapFrameSource {
  public:
   // vocabulary: not owned, outlives the closer. Throws std::invalid_argument on bad options.
   LoopCloser(const LoopOptions& options, const RigCalibration& rig, const Vocabulary& vocabulary);
@@ -129,9 +130,9 @@ class LoopCloser final : public KeyframeSink, public KeyframeImageSink {
 
   // T_map_odom of the odometry frame of epoch `odometry_epoch` (EstimatorOutput's); false while
   // that frame is not placed in the map (not levelled yet, or a new frame not yet relocalized).
-  bool map_from_odometry(std::uint32_t odometry_epoch, Eigen::Isometry3d* T_map_odom) const;
+  bool map_from_odometry(std::uint32_t odometry_epoch, Eigen::Isometry3d* T_map_odom) const override;
   // Incremented by every change of T_map_odom (MAVLink's reset_counter).
-  std::uint32_t corrections() const { return corrections_; }
+  std::uint32_t corrections() const override { return corrections_; }
 
   const LoopStats& stats() const { return stats_; }
   std::size_t num_events() const { return n_events_; }

@@ -6,6 +6,8 @@
 #include <random>
 #include <vector>
 
+#include "core/loop/loop_closer.hpp"
+
 namespace ums::loop {
 namespace {
 
@@ -56,7 +58,57 @@ void keyframe(LoopCloser* closer, std::uint32_t epoch, FrameId id) {
   closer->on_keyframe(k);
 }
 
+// A map frame that the test moves by hand.
+struct FakeSource final : MapFrameSource {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  std::uint32_t n = 0;
+  bool map_from_odometry(std::uint32_t, Eigen::Isometry3d* out) const override {
+    *out = T;
+    return true;
+  }
+  std::uint32_t corrections() const override { return n; }
+};
+
 }  // namespace
+
+TEST_CASE("MapFramePoses: spread_s turns a correction into a ramp over that time, without a reset", "[loop]") {
+  FakeSource source;
+  Recorder next;
+  MapFramePoses map(source, &next, 1.0);  // 1 s
+  EstimatorOutput o = pose(0, 3);
+  o.t_ns = 0;
+  map.on_frame_pose(o);
+  // A 0.5 m, 10 deg correction at t = 0.5 s.
+  source.T.translation() = Eigen::Vector3d(0.5, 0.0, 0.0);
+  source.T.linear() = Eigen::AngleAxisd(10.0 * M_PI / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  source.n = 1;
+  for (const std::int64_t t_ns : {500'000'000LL, 1'000'000'000LL, 1'500'000'000LL, 2'000'000'000LL}) {
+    o.t_ns = t_ns;
+    map.on_frame_pose(o);
+  }
+  const Eigen::Vector3d p_odom(1.0, 2.0, 3.0);
+  // At the correction nothing moves yet, half-way at +0.5 s, all of it at +1 s and after.
+  CHECK((next.frames[1].p_w_b - p_odom).norm() < 1e-12);
+  const Eigen::Vector3d p_full = source.T * p_odom;
+  const Eigen::Vector3d p_half = Eigen::Vector3d(0.25, 0.0, 0.0) +
+      Eigen::AngleAxisd(5.0 * M_PI / 180.0, Eigen::Vector3d::UnitZ()) * p_odom;
+  CHECK((next.frames[2].p_w_b - p_half).norm() < 1e-9);
+  CHECK((next.frames[3].p_w_b - p_full).norm() < 1e-9);
+  CHECK((next.frames[4].p_w_b - p_full).norm() < 1e-9);
+  for (const EstimatorOutput& f : next.frames) CHECK(f.reset_counter == 3);  // spread: no reset
+  // Without spreading the same correction is a step and a reset.
+  FakeSource step_source;
+  Recorder step_next;
+  MapFramePoses step(step_source, &step_next);
+  o.t_ns = 0;
+  step.on_frame_pose(o);
+  step_source.T = source.T;
+  step_source.n = 1;
+  o.t_ns = 500'000'000LL;
+  step.on_frame_pose(o);
+  CHECK((step_next.frames[1].p_w_b - p_full).norm() < 1e-9);
+  CHECK(step_next.frames[1].reset_counter == 4);
+}
 
 TEST_CASE("MapFramePoses: odometry before the map exists, the map frame once placed, odometry for a new session",
           "[loop]") {
