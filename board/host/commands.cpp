@@ -41,7 +41,9 @@ usage: umsvins <command> [options]
   sweep <dataset> --runs N --start-range A:B --out DIR [--seed S] [--duration D] [--config F]
       Repeat replay from random start times (robustness table).
   live [--config F] [--source d455|replay:DIR] [--out DIR] [--seconds S] [--mavlink ...]
+       [--vocabulary F [--load-map F] [--save-map F] [--map-spread-s S]]
       Run the threaded board app on a RealSense D455 (or a recorded source). Ctrl-C stops it.
+      Loop closure options as for replay.
   record --out DIR [--seconds S]             Record a D455 to the EuRoC layout.
   budget [--config F] [--dataset DIR]        Print the memory each pipeline component takes.
   vocab train <dataset>... --out F [--k K] [--levels L] [--every N] [--features M] [--seed S]

@@ -17,6 +17,7 @@
 #include "core/common/version.hpp"
 #include "hal/d455/d455_device.hpp"
 #include "hal/d455/nominal_calibration.hpp"
+#include "board/host/loop_session.hpp"
 #include "board/host/mavlink_args.hpp"
 #include "hal/d455/realtime.hpp"
 #include "hal/d455/record_euroc.hpp"
@@ -119,7 +120,8 @@ int run_record(const std::vector<std::string>& argv, std::ostream& out, std::ost
 
 int run_live(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
   const Args args("live", argv, with_mavlink_flags({"quiet"}),
-                  with_mavlink_valued({"config", "source", "out", "seconds", "duration"}));
+                  with_mavlink_valued({"config", "source", "out", "seconds", "duration", "vocabulary", "load-map",
+                                       "save-map", "map-spread-s"}));
   args.require_positionals(0, "");
   const std::filesystem::path out_dir = args.get_or("out", "out/live");
   const std::string source = args.get_or("source", "d455");
@@ -169,7 +171,11 @@ int run_live(const std::vector<std::string>& argv, std::ostream& out, std::ostre
   pipeline.set_trajectory_output(trajectory);
   pipeline.set_imu_pose_output(imu_poses);
   std::unique_ptr<MavlinkSession> mavlink = mavlink_from_args(args, config, out_dir);
-  if (mavlink != nullptr) pipeline.set_pose_consumer(&mavlink->output());
+  std::unique_ptr<LoopSession> loop = loop_from_args(args, config, out_dir);
+  if (loop != nullptr) loop->attach(pipeline);
+  if (mavlink != nullptr) {
+    pipeline.set_pose_consumer(loop != nullptr ? loop->map_frame(&mavlink->output()) : &mavlink->output());
+  }
 
   SigintScope sigint;
   std::atomic<bool> producer_done{false};
@@ -224,6 +230,11 @@ int run_live(const std::vector<std::string>& argv, std::ostream& out, std::ostre
     pipeline.set_pose_consumer(nullptr);
     mavlink->output().write_stats(w);
     if (!mavlink->close()) err << "warning: " << (out_dir / "mavlink_sent.csv").string() << ": write failed\n";
+  }
+  if (loop != nullptr) {
+    loop->detach(pipeline);
+    if (!loop->finish()) err << "warning: " << loop->map_trajectory_path().string() << ": write failed\n";
+    loop->write_stats(w);
   }
   w.begin_object("bridge")
       .value("imu_dropped", bridge->imu_dropped())

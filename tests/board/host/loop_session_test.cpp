@@ -204,3 +204,24 @@ TEST_CASE("replay --load-map refuses corrupt, truncated, foreign and misplaced m
 }
 
 }  // namespace ums::cli
+
+namespace ums::cli {
+
+// The live app takes the same loop options: it finds itself in the saved map, as replay does.
+TEST_CASE("live --vocabulary --load-map: the board app is placed in a saved map", "[cli][loop]") {
+  const std::string dir = test::make_temp_dir("loop_live");
+  const std::string voc = micro_vocabulary(dir);
+  const std::string map = dir + "/micro.map";
+  std::string out, err;
+  REQUIRE(run({"replay", test::euroc_micro_dir(), "--vocabulary", voc, "--save-map", map, "--out", dir + "/a", "--quiet"},
+              &out, &err) == kExitOk);
+  REQUIRE(run({"live", "--source", "replay:" + test::euroc_micro_dir(), "--vocabulary", voc, "--load-map", map, "--out",
+               dir + "/live", "--quiet"}, &out, &err) == kExitOk);
+  INFO(out << err);
+  const std::string stats = slurp(dir + "/live/stats.json");
+  CHECK(loop_stat(stats, "enabled") == 1.0);
+  CHECK(loop_stat(stats, "relocalizations") == 1);
+  CHECK(read_tum(dir + "/live/trajectory_map.tum").size() >= 40);
+}
+
+}  // namespace ums::cli
