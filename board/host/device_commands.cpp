@@ -231,9 +231,14 @@ int run_live(const std::vector<std::string>& argv, std::ostream& out, std::ostre
     mavlink->output().write_stats(w);
     if (!mavlink->close()) err << "warning: " << (out_dir / "mavlink_sent.csv").string() << ": write failed\n";
   }
+  bool failed_write = false;  // an output that could not be written: exit 1 after the rest
   if (loop != nullptr) {
     loop->detach(pipeline);
-    if (!loop->finish()) err << "warning: " << loop->map_trajectory_path().string() << ": write failed\n";
+    const std::string loop_error = loop->finish();
+    if (!loop_error.empty()) {
+      err << "umsvins: " << loop_error << "\n";
+      failed_write = true;
+    }
     loop->write_stats(w);
   }
   w.begin_object("bridge")
@@ -257,7 +262,7 @@ int run_live(const std::vector<std::string>& argv, std::ostream& out, std::ostre
     err << "umsvins live: " << producer_error << "\n";
     return kExitFailure;
   }
-  return kExitOk;
+  return failed_write ? kExitFailure : kExitOk;
 }
 
 }  // namespace ums::cli

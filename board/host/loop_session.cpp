@@ -1,5 +1,7 @@
 #include "board/host/loop_session.hpp"
 
+#include <cerrno>
+#include <cstring>
 #include <fstream>
 #include <iterator>
 #include <sstream>
@@ -71,13 +73,15 @@ void LoopSession::on_frame_pose(const EstimatorOutput& out) {
   ++map_poses_;
 }
 
-bool LoopSession::finish() {
-  bool ok = true;
+std::string LoopSession::finish() {
+  auto failed = [](const std::filesystem::path& p) { return p.string() + ": " + std::strerror(errno); };
+  std::string error;
   if (map_file_ != nullptr) {
-    ok = std::fclose(map_file_) == 0;
+    if (std::fclose(map_file_) != 0) error = failed(map_path_);
     map_file_ = nullptr;
   }
-  std::ofstream csv(out_dir_ / "loops.csv");
+  const std::filesystem::path loops_path = out_dir_ / "loops.csv";
+  std::ofstream csv(loops_path);
   csv << "# t_query_s,t_loop_s,query_frame,loop_frame,inliers,correction_m,correction_deg,relocalization,"
          "x,y,z,qx,qy,qz,qw (T_loop_query: the query's body in the loop keyframe's body frame)\n";
   char line[320];
@@ -93,16 +97,16 @@ bool LoopSession::finish() {
     csv << line;
   }
   csv.flush();
-  ok = ok && static_cast<bool>(csv);
+  if (!csv && error.empty()) error = failed(loops_path);
   if (!save_map_path_.empty()) {
     const std::vector<std::uint8_t> bytes = closer_->save_map();
     std::ofstream map(save_map_path_, std::ios::binary);
     map.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
     map.flush();
-    ok = ok && static_cast<bool>(map);
-    saved_map_bytes_ = bytes.size();
+    if (map) saved_map_bytes_ = bytes.size();
+    if (!map && error.empty()) error = failed(save_map_path_);
   }
-  return ok;
+  return error;
 }
 
 void LoopSession::write_stats(JsonWriter& w) const {

@@ -49,9 +49,9 @@ class LoopSession final : public PoseSink {
   void on_frame_pose(const EstimatorOutput& out) override;
   void on_imu_pose(std::int64_t, const NavState&) override {}
 
-  // Closes trajectory_map.tum, writes loops.csv and the map file (--save-map); false when a write
-  // failed.
-  bool finish();
+  // Closes trajectory_map.tum, writes loops.csv and the map file (--save-map); "" or what failed
+  // ("<file>: <reason>").
+  std::string finish();
   void write_stats(JsonWriter& w) const;
   const loop::LoopCloser& closer() const { return *closer_; }
   // A consumer of the poses in the map frame (loop/map_frame_poses.hpp): pass the returned sink

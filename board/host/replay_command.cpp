@@ -293,9 +293,14 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
     mavlink->output().write_stats(w);
     if (!mavlink->close()) err << "warning: " << (out_dir / "mavlink_sent.csv").string() << ": write failed\n";
   }
+  bool failed_write = false;  // an output that could not be written: exit 1 after the rest
   if (loop != nullptr) {
     loop->detach(pipeline);
-    if (!loop->finish()) err << "warning: " << loop->map_trajectory_path().string() << ": write failed\n";
+    const std::string loop_error = loop->finish();
+    if (!loop_error.empty()) {
+      err << "umsvins: " << loop_error << "\n";
+      failed_write = true;
+    }
     loop->write_stats(w);
   } else {
     w.begin_object("loop").value("enabled", false).end_object();
@@ -359,7 +364,7 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
     out << "replay: --frontend-only: no trajectory; wrote ";
   }
   out << (out_dir / "stats.json").string() << " and " << (out_dir / "report.html").string() << "\n";
-  return kExitOk;
+  return failed_write ? kExitFailure : kExitOk;
 }
 
 }  // namespace ums::cli

@@ -34,6 +34,7 @@ struct KeyframeRecord {
   FrameId id = kNoFrame;
   std::int64_t t_ns = 0;
   std::uint32_t session = 0;     // odometry frames differ across sessions (estimator resets)
+  bool placed = false;           // its session is placed in the map (T_map_b is meaningful)
   Eigen::Isometry3d T_odom_b = Eigen::Isometry3d::Identity();  // as the odometry had it
   Eigen::Isometry3d T_map_b = Eigen::Isometry3d::Identity();   // after the last pose-graph solve
   double path_m = 0.0;           // m, distance flown since the session's first keyframe

@@ -84,6 +84,8 @@ void LoopOptions::validate() const {
   need(verifier.min_matches >= 4, "verifier.min_matches", verifier.min_matches);
   need(verifier.max_hamming > 0 && verifier.max_hamming < 256, "verifier.max_hamming", verifier.max_hamming);
   need(verifier.ransac_iterations >= 1, "verifier.ransac_iterations", verifier.ransac_iterations);
+  need(verifier.seed != 0, "verifier.seed", verifier.seed);  // xorshift stays at 0
+  graph.validate();
   need(verifier.inlier_rad > 0.0, "verifier.inlier_rad", verifier.inlier_rad);
 }
 
@@ -145,7 +147,7 @@ void LoopCloser::describe(FrameId id, const ImageView& left, const FrameFeatures
 }
 
 bool LoopCloser::map_from_odometry(std::uint32_t odometry_epoch, Eigen::Isometry3d* T_map_odom) const {
-  if (!started_ || odometry_epoch != epoch_ || !placed_[session_ % kSessions]) return false;
+  if (!started_ || odometry_epoch != epoch_ || !session_placed_) return false;
   *T_map_odom = T_map_odom_;
   return true;
 }
@@ -153,7 +155,7 @@ bool LoopCloser::map_from_odometry(std::uint32_t odometry_epoch, Eigen::Isometry
 void LoopCloser::begin_session(std::uint32_t epoch) {
   // The first levelled odometry frame defines the map; later ones wait for a verified loop.
   if (started_) ++session_;
-  placed_[session_ % kSessions] = !started_;
+  session_placed_ = !started_;
   started_ = true;
   epoch_ = epoch;
   ++stats_.sessions;
@@ -176,7 +178,10 @@ void LoopCloser::keep(const MarginalizedKeyframe& k) {
   if (!started_ || k.odometry_epoch != epoch_) begin_session(k.odometry_epoch);
   if (db_->full()) make_room();
   std::uint32_t slot = 0;
-  if (db_->reserve(&slot) != Status::kOk) return;
+  if (db_->reserve(&slot) != Status::kOk) {
+    ++stats_.keyframes_dropped;
+    return;
+  }
   const bool described = build_record(k, slot);
   db_->commit(slot);
   if (!described) {
@@ -214,6 +219,7 @@ bool LoopCloser::build_record(const MarginalizedKeyframe& k, std::uint32_t slot)
   r.id = k.id;
   r.t_ns = k.t_ns;
   r.session = session_;
+  r.placed = session_placed_;
   r.T_odom_b = k.T_odom_b;
   r.T_map_b = T_map_odom_ * k.T_odom_b;
   const std::int32_t prev = db_->newest();
@@ -263,7 +269,7 @@ void LoopCloser::query(std::uint32_t slot) {
   const std::int64_t cutoff_ns = q.t_ns - static_cast<std::int64_t>(options_.recent_s * 1e9);
   auto allowed = [&](std::uint32_t s) {
     const KeyframeRecord& c = db_->at(s);
-    if (!placed_[c.session % kSessions]) return false;
+    if (!c.placed) return false;
     return c.session != q.session || c.t_ns < cutoff_ns;
   };
   IndexHit hits[16];
@@ -296,7 +302,7 @@ bool LoopCloser::passes_gates(std::uint32_t q_slot, std::uint32_t c_slot, const 
     return false;
   }
   // Both frames are levelled to gravity: the loop must agree on the query's roll and pitch.
-  const bool q_placed = placed_[q.session % kSessions];
+  const bool q_placed = q.placed;
   const Eigen::Matrix3d R_q = (q_placed ? q.T_map_b : q.T_odom_b).linear();
   const Eigen::Matrix3d R_q_loop = c.T_map_b.linear() * g.T_c_q.linear();
   const Eigen::Vector3d up_q = R_q.transpose() * Eigen::Vector3d::UnitZ();
@@ -325,21 +331,13 @@ bool LoopCloser::close_loop(std::uint32_t q_slot, std::uint32_t c_slot, const Lo
   }
   KeyframeRecord& q = db_->at(q_slot);
   KeyframeRecord& c = db_->at(c_slot);
-  const bool relocalization = !placed_[q.session % kSessions];
-  if (relocalization) {
-    // Place the new session by this loop; the pose graph then spreads it.
-    T_map_odom_ = c.T_map_b * g.T_c_q * q.T_odom_b.inverse();
-    placed_[q.session % kSessions] = true;
-    for (std::int32_t s = db_->oldest(); s >= 0; s = db_->at(s).next) {
-      KeyframeRecord& r = db_->at(s);
-      if (r.session == q.session) r.T_map_b = T_map_odom_ * r.T_odom_b;
-    }
-  }
+  const bool relocalization = !q.placed;
+  if (relocalization) place_session(q, c.T_map_b * g.T_c_q, true);
   const Eigen::Isometry3d T_map_q_before = q.T_map_b;
   loops_[n_loops_++] = LoopEdge{c_slot, q_slot, g.T_c_q};
   if (!solve_graph()) {
     --n_loops_;
-    if (relocalization) placed_[q.session % kSessions] = false;
+    if (relocalization) place_session(q, q.T_map_b, false);
     reject(LoopGate::kPoseGraph);
     return false;
   }
@@ -358,6 +356,22 @@ bool LoopCloser::close_loop(std::uint32_t q_slot, std::uint32_t c_slot, const Lo
   return true;
 }
 
+void LoopCloser::place_session(const KeyframeRecord& q, const Eigen::Isometry3d& T_map_q, bool placed) {
+  // Both odometry frames are levelled to gravity: the placement is a yaw and a translation (the
+  // loop's own roll/pitch error, up to the gravity gate, must not tilt the session).
+  const Eigen::Matrix3d R = T_map_q.linear() * q.T_odom_b.linear().transpose();
+  T_map_odom_.setIdentity();
+  T_map_odom_.linear() = Eigen::AngleAxisd(yaw_of(R), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  T_map_odom_.translation() = T_map_q.translation() - T_map_odom_.linear() * q.T_odom_b.translation();
+  if (q.session == session_) session_placed_ = placed;
+  for (std::int32_t s = db_->oldest(); s >= 0; s = db_->at(s).next) {
+    KeyframeRecord& r = db_->at(s);
+    if (r.session != q.session) continue;
+    r.placed = placed;
+    r.T_map_b = T_map_odom_ * r.T_odom_b;
+  }
+}
+
 bool LoopCloser::solve_graph() {
   const auto start = std::chrono::steady_clock::now();
   graph_->clear();
@@ -366,7 +380,7 @@ bool LoopCloser::solve_graph() {
   for (std::int32_t s = db_->oldest(); s >= 0; s = db_->at(s).next) {
     const KeyframeRecord& r = db_->at(s);
     node_of_[s] = -1;
-    if (!placed_[r.session % kSessions]) continue;
+    if (!r.placed) continue;
     int node = -1;
     if (graph_->add_node(r.T_map_b, &node) != Status::kOk) return false;
     node_of_[s] = node;

@@ -90,6 +90,7 @@ struct LoopStats {
   std::uint64_t queries = 0;
   std::uint64_t queries_skipped = 0;       // within loop_interval_s of an accepted loop
   std::uint64_t loop_edges_full = 0;       // loops verified but not kept: kMaxLoopEdges reached
+  std::uint64_t keyframes_dropped = 0;     // database full and nothing may be decimated: not kept
   std::uint64_t candidates = 0;            // index hits examined
   std::uint64_t accepted = 0;
   std::uint64_t relocalizations = 0;       // accepted loops that joined a new session to the map
@@ -156,7 +157,6 @@ class LoopCloser final : public KeyframeSink, public KeyframeImageSink, public M
 
  private:
   static constexpr std::size_t kPending = capacity::kWindowSize + 4;
-  static constexpr std::uint32_t kSessions = 64;
   struct Pending;
 
   void describe(FrameId id, const ImageView& left, const FrameFeatures& features);
@@ -167,6 +167,9 @@ class LoopCloser final : public KeyframeSink, public KeyframeImageSink, public M
   bool passes_gates(std::uint32_t q_slot, std::uint32_t c_slot, const LoopGeometry& g);
   bool close_loop(std::uint32_t q_slot, std::uint32_t c_slot, const LoopGeometry& g);
   bool solve_graph();
+  // Sets T_map_odom (yaw and translation only) so that q sits at T_map_q, and marks q's session
+  // placed or not, its keyframes' map poses with it.
+  void place_session(const KeyframeRecord& q, const Eigen::Isometry3d& T_map_q, bool placed);
   void reject(LoopGate g) { ++stats_.rejected_by[static_cast<int>(g)]; }
   // Map files (loop_map.cpp).
   void check_map_header(const std::vector<std::uint8_t>& bytes, const std::string& source,
@@ -205,7 +208,7 @@ class LoopCloser final : public KeyframeSink, public KeyframeImageSink, public M
   std::size_t loaded_keyframes_ = 0;
   std::int64_t last_loop_t_ns_ = 0;
   bool any_loop_ = false;
-  bool placed_[kSessions] = {};  // per session (mod kSessions): joined to the map
+  bool session_placed_ = false;  // the current session is placed in the map
   Eigen::Isometry3d T_map_odom_ = Eigen::Isometry3d::Identity();
   std::uint32_t corrections_ = 0;
   LoopStats stats_;

@@ -1,10 +1,11 @@
 // Map files of the loop closer (LoopCloser::save_map / load_map; docs/loop-closure.md "Map files").
 //
 //   "UMSMAP01" | u32 version | u32 vocabulary checksum | u32 calibration hash | u32 keyframes |
-//   u32 loops | keyframes: u32 id, i64 t_ns, f64 p[3], f64 q[4] (x y z w, T_map_b), u16 loop ends,
+//   u32 loops | keyframes: u32 id, i64 t_ns, u32 session, f64 p[3], f64 q[4] (x y z w, T_map_b),
 //   u16 features, features: u64 descriptor[4], f32 p_b[3], f32 bearing_c0[3] |
 //   loops: u32 loop keyframe, u32 query keyframe (indices in file order), f64 p[3], f64 q[4]
 //   (T_loop_query) | u32 CRC-32 of everything before
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
@@ -55,7 +56,7 @@ std::vector<std::uint8_t> LoopCloser::save_map() const {
   // File order: the placed keyframes in time order; node_of_ maps a slot to its file index.
   std::uint32_t n = 0;
   for (std::int32_t s = db_->oldest(); s >= 0; s = db_->at(s).next) {
-    node_of_[s] = placed_[db_->at(s).session % kSessions] ? static_cast<std::int32_t>(n++) : -1;
+    node_of_[s] = db_->at(s).placed ? static_cast<std::int32_t>(n++) : -1;
   }
   std::uint32_t n_loops = 0;
   for (std::size_t l = 0; l < n_loops_; ++l) n_loops += node_of_[loops_[l].c_slot] >= 0 && node_of_[loops_[l].q_slot] >= 0;
@@ -66,8 +67,8 @@ std::vector<std::uint8_t> LoopCloser::save_map() const {
     const KeyframeRecord& r = db_->at(s);
     w.put<std::uint32_t>(r.id);
     w.put<std::int64_t>(r.t_ns);
+    w.put<std::uint32_t>(r.session);
     put_pose(w, r.T_map_b);
-    w.put<std::uint16_t>(r.loops);
     w.put<std::uint16_t>(static_cast<std::uint16_t>(r.features.size()));
     for (const LoopFeature& f : r.features) {
       w.put_bytes(f.descriptor.data(), sizeof(Descriptor));
@@ -117,10 +118,13 @@ void LoopCloser::read_map_records(const std::vector<std::uint8_t>& bytes, const 
     KeyframeRecord& rec = apply ? db_->at(slot) : scratch_record;
     rec.id = r.get<std::uint32_t>();
     rec.t_ns = r.get<std::int64_t>();
+    rec.session = r.get<std::uint32_t>();
     if (!get_pose(r, &rec.T_map_b) && !r.failed()) throw unusable(source, "keyframe " + std::to_string(k) + ": pose not a rigid transform");
+    if (rec.session >= 0x80000000u) throw unusable(source, "keyframe " + std::to_string(k) + ": session " + std::to_string(rec.session));
+    // Each saved session keeps its own odometry edges; the map poses stand in for the odometry.
     rec.T_odom_b = rec.T_map_b;
-    rec.session = 0;
-    rec.loops = r.get<std::uint16_t>();
+    rec.placed = true;
+    rec.loops = 0;  // counted from the loop list: the file's word is not trusted for decimation
     const std::uint16_t n_features = r.get<std::uint16_t>();
     if (n_features > capacity::kMaxLoopFeaturesPerKeyframe) throw unusable(source, "keyframe " + std::to_string(k) + ": " + std::to_string(n_features) + " features, capacity " + std::to_string(capacity::kMaxLoopFeaturesPerKeyframe));
     rec.features.clear();
@@ -141,7 +145,11 @@ void LoopCloser::read_map_records(const std::vector<std::uint8_t>& bytes, const 
     if (!get_pose(r, &T) || r.failed() || a >= n_keyframes || b >= n_keyframes || a == b) {
       throw unusable(source, "loop " + std::to_string(l) + " is malformed");
     }
-    if (apply) loops_[n_loops_++] = LoopEdge{slot_of_[a], slot_of_[b], T};
+    if (apply) {
+      loops_[n_loops_++] = LoopEdge{slot_of_[a], slot_of_[b], T};
+      ++db_->at(slot_of_[a]).loops;
+      ++db_->at(slot_of_[b]).loops;
+    }
   }
   if (r.remaining() != 0) throw unusable(source, std::to_string(r.remaining()) + " bytes after the last record");
 }
@@ -149,7 +157,9 @@ void LoopCloser::read_map_records(const std::vector<std::uint8_t>& bytes, const 
 void LoopCloser::commit_loaded(std::uint32_t slot) {
   KeyframeRecord& rec = db_->at(slot);
   const std::int32_t prev = db_->newest();
-  rec.path_m = prev < 0 ? 0.0 : db_->at(prev).path_m + (rec.T_map_b.translation() - db_->at(prev).T_map_b.translation()).norm();
+  const bool same_session = prev >= 0 && db_->at(prev).session == rec.session;
+  rec.path_m = !same_session ? 0.0 : db_->at(prev).path_m + (rec.T_map_b.translation() - db_->at(prev).T_map_b.translation()).norm();
+  session_ = std::max(session_, rec.session);
   for (std::size_t i = 0; i < rec.features.size(); ++i) scratch_[i] = rec.features[i].descriptor;
   vocabulary_.transform(scratch_.get(), rec.features.size(), &rec.bow);
   db_->commit(slot);
@@ -161,14 +171,15 @@ void LoopCloser::commit_loaded(std::uint32_t slot) {
 
 void LoopCloser::load_map(const std::vector<std::uint8_t>& bytes, const std::string& source) {
   std::uint32_t n_keyframes = 0, n_loops = 0;
+  session_ = 0;
   check_map_header(bytes, source, &n_keyframes, &n_loops);
   read_map_records(bytes, source, n_keyframes, n_loops, false);
   read_map_records(bytes, source, n_keyframes, n_loops, true);
-  // The map is session 0, placed; the run's first levelled keyframe starts session 1, unplaced.
+  // The map's sessions are placed; the run's first levelled keyframe starts the next session,
+  // unplaced until its first loop.
   started_ = true;
-  session_ = 0;
   epoch_ = 0xFFFFFFFFu;
-  placed_[0] = true;
+  session_placed_ = true;
   stats_.sessions = 1;
 }
 

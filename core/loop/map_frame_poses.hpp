@@ -80,7 +80,8 @@ class MapFramePoses final : public PoseSink {
   }
 
   Eigen::Isometry3d blended(std::int64_t t_ns) const {
-    const double a = start_ns_ < 0 ? 1.0 : std::min(1.0, static_cast<double>(t_ns - start_ns_) / static_cast<double>(spread_ns_));
+    const double a = start_ns_ < 0 ? 1.0
+                                   : std::clamp(static_cast<double>(t_ns - start_ns_) / static_cast<double>(spread_ns_), 0.0, 1.0);
     Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
     const Eigen::Quaterniond q0(from_.linear()), q1(target_.linear());
     T.linear() = q0.slerp(a, q1).toRotationMatrix();

@@ -607,6 +607,8 @@ TEST_CASE("LoopCloser: a new odometry session has no map pose until a loop to th
   const Eigen::Isometry3d map_error = T_back.inverse() * T_map_odom * (T_odom1_w * T_back);
   CHECK(map_error.translation().norm() < 0.02);
   CHECK(closer.corrections() >= 1);
+  // Both frames are levelled: the placement is a yaw and a translation, never a tilt.
+  CHECK((T_map_odom.linear() * Eigen::Vector3d::UnitZ() - Eigen::Vector3d::UnitZ()).norm() < 1e-12);
 }
 
 TEST_CASE("LoopCloser: describing, keeping, querying, verifying and closing a loop allocate nothing", "[loop]") {

@@ -113,7 +113,7 @@ TEST_CASE("LoopCloser map: malformed files are refused with the reason and chang
   expect_refused(&b, with_crc(bad), "truncated in keyframe 6");
   bad = good;
   const double nan = std::nan("");
-  std::memcpy(bad.data() + 28 + 4 + 8, &nan, 8);  // the first keyframe's x (after a 28-byte header, id, t_ns)
+  std::memcpy(bad.data() + 28 + 4 + 8 + 4, &nan, 8);  // the first keyframe's x (after a 28-byte header, id, t_ns, session)
   expect_refused(&b, with_crc(bad), "keyframe 0: pose not a rigid transform");
   bad = good;
   bad.insert(bad.end() - 4, 3, 0);
