@@ -14,10 +14,11 @@ usage: umsvins <command> [options]
 
   replay <dataset> [--config F] [--out DIR] [--start S] [--duration S] [--realtime]
                    [--frontend-only] [--quiet] [--deterministic] [--mavlink ...]
-                   [--vocabulary F [--load-map F] [--save-map F] [--map-spread-s S]]
+                   [--loop | --vocabulary F] [--load-map F] [--save-map F] [--map-spread-s S]
       Run on an EuRoC-layout folder (the one holding mav0/). Writes DIR/stats.json
       (and DIR/trajectory.tum, DIR/report.html where those stages exist). Default DIR: out/replay.
-      --vocabulary F: loop closure with that vocabulary (umsvins vocab train): also writes
+      --loop: loop closure with the built-in vocabulary (--vocabulary F: with that one, from
+      umsvins vocab train); the loop work runs on its own thread (not with --deterministic). Writes
       DIR/trajectory_map.tum (poses in the map frame) and DIR/loops.csv (docs/loop-closure.md);
       --save-map F writes the map at the end, --load-map F starts in a saved map's frame; with
       --mavlink the map frame goes out, each correction a reset or, with --map-spread-s S, a ramp.
@@ -41,9 +42,10 @@ usage: umsvins <command> [options]
   sweep <dataset> --runs N --start-range A:B --out DIR [--seed S] [--duration D] [--config F]
       Repeat replay from random start times (robustness table).
   live [--config F] [--source d455|replay:DIR] [--out DIR] [--seconds S] [--mavlink ...]
-       [--vocabulary F [--load-map F] [--save-map F] [--map-spread-s S]]
+       [--loop | --vocabulary F] [--load-map F] [--save-map F] [--map-spread-s S]
       Run the threaded board app on a RealSense D455 (or a recorded source). Ctrl-C stops it.
-      Loop closure options as for replay.
+      Loop closure options as for replay (a keyframe the busy loop thread cannot take is dropped
+      and counted: a frame never waits for loop closure).
   record --out DIR [--seconds S]             Record a D455 to the EuRoC layout.
   budget [--config F] [--dataset DIR]        Print the memory each pipeline component takes.
   vocab train <dataset>... --out F [--k K] [--levels L] [--every N] [--features M] [--seed S]

@@ -119,7 +119,7 @@ int run_record(const std::vector<std::string>& argv, std::ostream& out, std::ost
 }
 
 int run_live(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
-  const Args args("live", argv, with_mavlink_flags({"quiet"}),
+  const Args args("live", argv, with_mavlink_flags({"quiet", "loop"}),
                   with_mavlink_valued({"config", "source", "out", "seconds", "duration", "vocabulary", "load-map",
                                        "save-map", "map-spread-s"}));
   args.require_positionals(0, "");
@@ -171,7 +171,8 @@ int run_live(const std::vector<std::string>& argv, std::ostream& out, std::ostre
   pipeline.set_trajectory_output(trajectory);
   pipeline.set_imu_pose_output(imu_poses);
   std::unique_ptr<MavlinkSession> mavlink = mavlink_from_args(args, config, out_dir);
-  std::unique_ptr<LoopSession> loop = loop_from_args(args, config, out_dir);
+  // Live: a frame never waits for loop closure (a keyframe the loop thread cannot take is counted).
+  std::unique_ptr<LoopSession> loop = loop_from_args(args, config, out_dir, LoopThreading{false, QueueFull::kDrop});
   if (loop != nullptr) loop->attach(pipeline);
   if (mavlink != nullptr) {
     pipeline.set_pose_consumer(loop != nullptr ? loop->map_frame(&mavlink->output()) : &mavlink->output());

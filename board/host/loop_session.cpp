@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "board/host/builtin_vocabulary.hpp"
 #include "board/host/cli_args.hpp"
 #include "board/host/replay_pipeline.hpp"
 #include "core/estimator/estimator.hpp"
@@ -15,6 +16,7 @@
 namespace ums::cli {
 
 loop::Vocabulary read_vocabulary(const std::filesystem::path& path) {
+  if (path.empty()) return loop::Vocabulary::parse(builtin_vocabulary_bytes(), kBuiltinVocabularyName);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw std::runtime_error(path.string() + ": cannot open the vocabulary");
   const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
@@ -25,7 +27,7 @@ LoopSession::LoopSession(const std::filesystem::path& vocabulary, const AppConfi
                          const std::filesystem::path& out_dir)
     : out_dir_(out_dir),
       map_path_(out_dir / "trajectory_map.tum"),
-      vocabulary_path_(vocabulary.string()),
+      vocabulary_path_(vocabulary.empty() ? std::string(kBuiltinVocabularyName) : vocabulary.string()),
       vocabulary_(read_vocabulary(vocabulary)),
       closer_(std::make_unique<loop::LoopCloser>(loop::LoopOptions{}, config.rig, vocabulary_)) {
   map_file_ = std::fopen(map_path_.c_str(), "w");
@@ -33,8 +35,17 @@ LoopSession::LoopSession(const std::filesystem::path& vocabulary, const AppConfi
   std::fputs("# t_s x y z qx qy qz qw (body = IMU in the map frame: T_map_odom * T_odom_b; umsvins)\n", map_file_);
 }
 
+void LoopSession::run_on_thread(QueueFull when_full) {
+  worker_ = std::make_unique<LoopWorker>(*closer_, *closer_, when_full);
+}
+
+const loop::MapFrameSource& LoopSession::source() const {
+  if (worker_ != nullptr) return *worker_;
+  return *closer_;
+}
+
 PoseSink* LoopSession::map_frame(PoseSink* next) {
-  map_frame_ = std::make_unique<loop::MapFramePoses>(*closer_, next, spread_s_);
+  map_frame_ = std::make_unique<loop::MapFramePoses>(source(), next, spread_s_);
   return map_frame_.get();
 }
 
@@ -47,12 +58,18 @@ void LoopSession::load_map(const std::filesystem::path& path) {
 }
 
 LoopSession::~LoopSession() {
+  if (worker_ != nullptr) worker_->stop();
   if (map_file_ != nullptr) std::fclose(map_file_);
 }
 
 void LoopSession::attach(ReplayPipeline& pipeline) {
-  pipeline.set_keyframe_image_sink(closer_.get());
-  pipeline.set_keyframe_sink(closer_.get());
+  if (worker_ != nullptr) {
+    pipeline.set_keyframe_image_sink(worker_.get());
+    pipeline.set_keyframe_sink(worker_.get());
+  } else {
+    pipeline.set_keyframe_image_sink(closer_.get());
+    pipeline.set_keyframe_sink(closer_.get());
+  }
   pipeline.set_map_pose_consumer(this);
 }
 
@@ -64,7 +81,7 @@ void LoopSession::detach(ReplayPipeline& pipeline) {
 
 void LoopSession::on_frame_pose(const EstimatorOutput& out) {
   Eigen::Isometry3d T_map_odom;
-  if (map_file_ == nullptr || !closer_->map_from_odometry(out.odometry_epoch, &T_map_odom)) return;
+  if (map_file_ == nullptr || !source().map_from_odometry(out.odometry_epoch, &T_map_odom)) return;
   const Eigen::Vector3d p = T_map_odom * out.p_w_b;
   const Eigen::Quaterniond q = Eigen::Quaterniond(T_map_odom.linear() * out.q_w_b.toRotationMatrix()).normalized();
   std::fprintf(map_file_, "%lld.%09lld %.7f %.7f %.7f %.9f %.9f %.9f %.9f\n",
@@ -75,6 +92,10 @@ void LoopSession::on_frame_pose(const EstimatorOutput& out) {
 
 std::string LoopSession::finish() {
   auto failed = [](const std::filesystem::path& p) { return p.string() + ": " + std::strerror(errno); };
+  if (worker_ != nullptr) {  // the queued keyframes first: the outputs below are the closer's
+    worker_->stop();
+    worker_stats_ = worker_->stats();
+  }
   std::string error;
   if (map_file_ != nullptr) {
     if (std::fclose(map_file_) != 0) error = failed(map_path_);
@@ -146,25 +167,33 @@ void LoopSession::write_stats(JsonWriter& w) const {
       .value("loaded_keyframes", static_cast<std::uint64_t>(closer_->loaded_keyframes()))
       .value("saved_map", save_map_path_.string())
       .value("saved_map_bytes", static_cast<std::uint64_t>(saved_map_bytes_))
-      .value("peak_bytes", static_cast<std::uint64_t>(closer_->footprint_bytes()))
+      .value("peak_bytes", static_cast<std::uint64_t>(closer_->footprint_bytes() +
+                                                      (worker_ != nullptr ? capacity::kLoopQueue * sizeof(loop::LoopKeyframe) : 0)))
+      .value("thread", worker_ != nullptr)
+      .value("thread_queued", worker_stats_.queued)
+      .value("thread_dropped", worker_stats_.dropped)
+      .value("thread_waits", worker_stats_.waits)
+      .value("thread_max_depth", worker_stats_.max_depth)
       .end_object();
 }
 
 std::unique_ptr<LoopSession> loop_from_args(const Args& args, const AppConfig& config,
-                                            const std::filesystem::path& out_dir) {
+                                            const std::filesystem::path& out_dir, LoopThreading threading) {
   const std::optional<std::string> vocabulary = args.get("vocabulary");
-  if (!vocabulary) {
+  if (!vocabulary && !args.has("loop")) {
     if (args.get("load-map") || args.get("save-map") || args.get("map-spread-s")) {
-      throw UsageError("umsvins: --load-map, --save-map and --map-spread-s need --vocabulary (loop closure)");
+      throw UsageError("umsvins: --load-map, --save-map and --map-spread-s need --loop or --vocabulary (loop closure)");
     }
     return nullptr;
   }
-  auto session = std::make_unique<LoopSession>(*vocabulary, config, out_dir);
+  if (vocabulary && vocabulary->empty()) throw UsageError("umsvins: --vocabulary needs a file");
+  auto session = std::make_unique<LoopSession>(vocabulary.value_or(""), config, out_dir);
   if (const auto load = args.get("load-map")) session->load_map(*load);
   if (const auto save = args.get("save-map")) session->save_map_to(*save);
   const double spread_s = args.get_double("map-spread-s", 0.0);
   if (!(spread_s >= 0.0 && spread_s <= 60.0)) throw UsageError("umsvins: --map-spread-s must be in [0, 60] s");
   session->set_map_spread_s(spread_s);
+  if (!threading.same_thread) session->run_on_thread(threading.when_full);
   return session;
 }
 

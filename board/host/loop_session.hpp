@@ -4,10 +4,14 @@
 // frame, from the first frame that has a map pose; trajectory.tum stays the continuous
 // odometry), loops.csv (every accepted loop with its size) and stats.json's "loop" object.
 //
-// Flags: --vocabulary F turns loop closure on (no vocabulary, no loop closure: the outputs are
-// not written and stats.json says "loop": {"enabled": false}). --load-map F starts from a map
+// Flags: --loop turns loop closure on with the built-in vocabulary, --vocabulary F with that one
+// (neither: no loop closure, the outputs are not written and stats.json says "loop":
+// {"enabled": false}). --load-map F starts from a map
 // saved by an earlier run (the run joins it at its first verified loop); --save-map F writes the
 // map at the end. Both need --vocabulary.
+//
+// Threads: with run_on_thread() the closer's costly step runs on its own thread (LoopWorker);
+// without it everything runs on the frame thread, so --deterministic replays stay identical.
 
 #include <cstdint>
 #include <cstdio>
@@ -16,6 +20,7 @@
 #include <string>
 
 #include "board/config/app_config.hpp"
+#include "board/host/loop_worker.hpp"
 #include "core/loop/loop_closer.hpp"
 #include "core/loop/map_frame_poses.hpp"
 #include "core/loop/vocabulary.hpp"
@@ -27,11 +32,13 @@ namespace ums::cli {
 class Args;
 class ReplayPipeline;
 
-// Reads and parses a vocabulary file; std::runtime_error naming the file and the reason.
+// Reads and parses a vocabulary file ("" : the built-in one); std::runtime_error naming the file
+// and the reason.
 loop::Vocabulary read_vocabulary(const std::filesystem::path& path);
 
 class LoopSession final : public PoseSink {
  public:
+  // vocabulary: a file, or "" for the built-in one.
   LoopSession(const std::filesystem::path& vocabulary, const AppConfig& config,
               const std::filesystem::path& out_dir);
   // Start-up, before the first keyframe: std::runtime_error naming the file and the reason.
@@ -42,12 +49,16 @@ class LoopSession final : public PoseSink {
   LoopSession(const LoopSession&) = delete;
   LoopSession& operator=(const LoopSession&) = delete;
 
+  // Before attach(): the loop work after the keyframe images on its own thread.
+  void run_on_thread(QueueFull when_full);
   // Connects the closer to the pipeline's keyframes and this to its poses.
   void attach(ReplayPipeline& pipeline);
   void detach(ReplayPipeline& pipeline);
 
   void on_frame_pose(const EstimatorOutput& out) override;
   void on_imu_pose(std::int64_t, const NavState&) override {}
+  // Where the map frame is read from: the worker's published placement, or the closer.
+  const loop::MapFrameSource& source() const;
 
   // Closes trajectory_map.tum, writes loops.csv and the map file (--save-map); "" or what failed
   // ("<file>: <reason>").
@@ -71,6 +82,8 @@ class LoopSession final : public PoseSink {
   std::size_t saved_map_bytes_ = 0;
   loop::Vocabulary vocabulary_;
   std::unique_ptr<loop::LoopCloser> closer_;
+  std::unique_ptr<LoopWorker> worker_;
+  LoopWorkerStats worker_stats_;
   std::unique_ptr<loop::MapFramePoses> map_frame_;
   std::FILE* map_file_ = nullptr;
   std::uint64_t map_poses_ = 0;
@@ -78,8 +91,13 @@ class LoopSession final : public PoseSink {
   double spread_s_ = 0.0;
 };
 
-// The session asked for by --vocabulary, or nullptr.
+// The session asked for by --vocabulary, or nullptr; its loop work on a thread unless
+// `same_thread` (--deterministic), a live run dropping keyframes the thread cannot take.
+struct LoopThreading {
+  bool same_thread = false;
+  QueueFull when_full = QueueFull::kWait;
+};
 std::unique_ptr<LoopSession> loop_from_args(const Args& args, const AppConfig& config,
-                                            const std::filesystem::path& out_dir);
+                                            const std::filesystem::path& out_dir, LoopThreading threading);
 
 }  // namespace ums::cli

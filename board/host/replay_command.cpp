@@ -164,7 +164,7 @@ void write_report(const std::string& dataset, const hal::EurocReader& reader, co
 }  // namespace
 
 int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
-  const Args args("replay", argv, with_mavlink_flags({"realtime", "frontend-only", "quiet", "deterministic"}),
+  const Args args("replay", argv, with_mavlink_flags({"realtime", "frontend-only", "quiet", "deterministic", "loop"}),
                   with_mavlink_valued({"config", "out", "start", "duration", "vocabulary", "load-map", "save-map", "map-spread-s"}));
   args.require_positionals(1, "<dataset> (the folder holding mav0/)");
   const std::string dataset = args.positionals()[0];
@@ -211,7 +211,12 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
     pipeline.set_state_output(states);
   }
   std::unique_ptr<MavlinkSession> mavlink = mavlink_from_args(args, config, out_dir);
-  std::unique_ptr<LoopSession> loop = pipeline.has_estimator() ? loop_from_args(args, config, out_dir) : nullptr;
+  // Loop work on its own thread, except in --deterministic runs; --realtime drops what it cannot
+  // take like a live run, a replay as fast as it can waits for it.
+  const LoopThreading loop_threading{pipeline_options.deterministic,
+                                     args.has("realtime") ? QueueFull::kDrop : QueueFull::kWait};
+  std::unique_ptr<LoopSession> loop =
+      pipeline.has_estimator() ? loop_from_args(args, config, out_dir, loop_threading) : nullptr;
   if (loop != nullptr) loop->attach(pipeline);
   // With loop closure the flight controller gets the map frame (and a reset at each correction).
   if (mavlink != nullptr) {

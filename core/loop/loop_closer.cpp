@@ -99,6 +99,7 @@ LoopCloser::LoopCloser(const LoopOptions& options, const RigCalibration& rig, co
       index_(new InvertedIndex(vocabulary.nodes())),
       graph_(new PoseGraph4Dof()),
       pending_(new Pending[kPending]),
+      prepared_(new LoopKeyframe()),
       scratch_(new Descriptor[capacity::kMaxLoopFeaturesPerKeyframe]),
       node_of_(new std::int32_t[capacity::kMaxKeyframes]),
       slot_of_(new std::uint32_t[capacity::kMaxKeyframes]),
@@ -147,9 +148,7 @@ void LoopCloser::describe(FrameId id, const ImageView& left, const FrameFeatures
 }
 
 bool LoopCloser::map_from_odometry(std::uint32_t odometry_epoch, Eigen::Isometry3d* T_map_odom) const {
-  if (!started_ || odometry_epoch != epoch_ || !session_placed_) return false;
-  *T_map_odom = T_map_odom_;
-  return true;
+  return placement().map_from_odometry(odometry_epoch, T_map_odom);
 }
 
 void LoopCloser::begin_session(std::uint32_t epoch) {
@@ -162,6 +161,11 @@ void LoopCloser::begin_session(std::uint32_t epoch) {
 }
 
 void LoopCloser::on_keyframe(const MarginalizedKeyframe& k) {
+  prepare(k, prepared_.get());
+  add_keyframe(*prepared_);
+}
+
+void LoopCloser::add_keyframe(const LoopKeyframe& k) {
   const auto start = std::chrono::steady_clock::now();
   keep(k);
   const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
@@ -169,7 +173,7 @@ void LoopCloser::on_keyframe(const MarginalizedKeyframe& k) {
   stats_.max_keyframe_ms = std::max(stats_.max_keyframe_ms, ms);
 }
 
-void LoopCloser::keep(const MarginalizedKeyframe& k) {
+void LoopCloser::keep(const LoopKeyframe& k) {
   ++stats_.keyframes_in;
   if (!k.gravity_aligned) {
     ++stats_.keyframes_not_levelled;
@@ -182,9 +186,9 @@ void LoopCloser::keep(const MarginalizedKeyframe& k) {
     ++stats_.keyframes_dropped;
     return;
   }
-  const bool described = build_record(k, slot);
+  build_record(k, slot);
   db_->commit(slot);
-  if (!described) {
+  if (!k.described) {
     ++stats_.keyframes_without_image;
     return;
   }
@@ -214,7 +218,34 @@ void LoopCloser::make_room() {
   ++stats_.keyframes_decimated;
 }
 
-bool LoopCloser::build_record(const MarginalizedKeyframe& k, std::uint32_t slot) {
+void LoopCloser::prepare(const MarginalizedKeyframe& k, LoopKeyframe* out) const {
+  out->id = k.id;
+  out->t_ns = k.t_ns;
+  out->odometry_epoch = k.odometry_epoch;
+  out->gravity_aligned = k.gravity_aligned;
+  out->T_odom_b = k.T_odom_b;
+  out->features.clear();
+  const Pending* pend = nullptr;
+  for (std::size_t i = 0; i < kPending; ++i) {
+    if (pending_[i].id == k.id) pend = &pending_[i];
+  }
+  out->described = pend != nullptr;
+  if (pend == nullptr || !k.gravity_aligned) return;
+  const Eigen::Isometry3d T_b_odom = k.T_odom_b.inverse();
+  for (const KeyframeObservation& o : k.observations) {
+    if (!o.stereo || !o.has_point || !o.has_left || out->features.full()) continue;
+    const std::uint32_t* end = pend->feature_id + pend->n;
+    const std::uint32_t* it = std::lower_bound(pend->feature_id, end, o.landmark_id);
+    if (it == end || *it != o.landmark_id) continue;
+    LoopFeature f;
+    f.descriptor = pend->descriptor[it - pend->feature_id];
+    f.p_b = (T_b_odom * o.p_odom).cast<float>();
+    f.bearing_c0 = o.bearing_left;
+    out->features.push_back(f);
+  }
+}
+
+void LoopCloser::build_record(const LoopKeyframe& k, std::uint32_t slot) {
   KeyframeRecord& r = db_->at(slot);
   r.id = k.id;
   r.t_ns = k.t_ns;
@@ -228,26 +259,10 @@ bool LoopCloser::build_record(const MarginalizedKeyframe& k, std::uint32_t slot)
     const KeyframeRecord& p = db_->at(prev);
     r.path_m = p.path_m + (k.T_odom_b.translation() - p.T_odom_b.translation()).norm();
   }
-  const Pending* pend = nullptr;
-  for (std::size_t i = 0; i < kPending; ++i) {
-    if (pending_[i].id == k.id) pend = &pending_[i];
-  }
-  if (pend == nullptr) return false;
-  const Eigen::Isometry3d T_b_odom = k.T_odom_b.inverse();
-  for (const KeyframeObservation& o : k.observations) {
-    if (!o.stereo || !o.has_point || !o.has_left || r.features.full()) continue;
-    const std::uint32_t* end = pend->feature_id + pend->n;
-    const std::uint32_t* it = std::lower_bound(pend->feature_id, end, o.landmark_id);
-    if (it == end || *it != o.landmark_id) continue;
-    LoopFeature f;
-    f.descriptor = pend->descriptor[it - pend->feature_id];
-    f.p_b = (T_b_odom * o.p_odom).cast<float>();
-    f.bearing_c0 = o.bearing_left;
-    r.features.push_back(f);
-  }
+  r.features.clear();
+  for (const LoopFeature& f : k.features) r.features.push_back(f);
   for (std::size_t i = 0; i < r.features.size(); ++i) scratch_[i] = r.features[i].descriptor;
   vocabulary_.transform(scratch_.get(), r.features.size(), &r.bow);
-  return true;
 }
 
 }  // namespace ums::loop
@@ -416,7 +431,7 @@ bool LoopCloser::solve_graph() {
 
 std::size_t LoopCloser::footprint_bytes() const {
   return db_->footprint_bytes() + index_->footprint_bytes() + graph_->footprint_bytes() +
-         kPending * sizeof(Pending) + capacity::kMaxLoopFeaturesPerKeyframe * sizeof(Descriptor) +
+         kPending * sizeof(Pending) + sizeof(LoopKeyframe) + capacity::kMaxLoopFeaturesPerKeyframe * sizeof(Descriptor) +
          capacity::kMaxKeyframes * (sizeof(std::int32_t) + sizeof(std::uint32_t)) +
          capacity::kMaxLoopEdges * (sizeof(LoopEdge) + sizeof(LoopEvent)) + sizeof(*this);
 }

@@ -11,9 +11,11 @@
 // depth are kept. Sessions: an estimator reset starts a new odometry frame; its keyframes join the
 // map only through a verified loop (relocalization), and until then it has no map pose.
 //
-// Everything is allocated at construction. The work runs where the sinks are called (the frame
-// thread in replay, which keeps --deterministic runs identical); it is per keyframe, never per
-// frame.
+// Everything is allocated at construction. The work is per keyframe, never per frame, in two
+// steps: prepare() picks the leaving keyframe's described 3D features (cheap, on the thread that
+// feeds the sinks), add_keyframe() keeps, queries, verifies and solves (the costly part). As a
+// KeyframeSink the closer runs both where it is called (--deterministic runs stay identical);
+// board/host/loop_worker runs the second on its own thread.
 
 #include <cstdint>
 #include <memory>
@@ -28,6 +30,7 @@
 #include "core/loop/brief.hpp"
 #include "core/loop/inverted_index.hpp"
 #include "core/loop/keyframe_database.hpp"
+#include "core/loop/loop_steps.hpp"
 #include "core/loop/loop_verifier.hpp"
 #include "core/loop/map_frame_source.hpp"
 #include "core/loop/pose_graph.hpp"
@@ -116,7 +119,7 @@ struct LoopEvent {
   Eigen::Isometry3d T_loop_query = Eigen::Isometry3d::Identity();  // measured, body frames
 };
 
-class LoopCloser final : public KeyframeSink, public KeyframeImageSink, public MapFrameSource {
+class LoopCloser final : public KeyframeSink, public KeyframeImageSink, public MapFrameSource, public LoopSteps {
  public:
   // vocabulary: not owned, outlives the closer. Throws std::invalid_argument on bad options.
   LoopCloser(const LoopOptions& options, const RigCalibration& rig, const Vocabulary& vocabulary);
@@ -126,8 +129,17 @@ class LoopCloser final : public KeyframeSink, public KeyframeImageSink, public M
 
   void on_keyframe_image(FrameId id, std::int64_t t_ns, const ImageView& left,
                          const FrameFeatures& features) override;
-  // Keyframes of a frame not levelled to gravity (VO) are not kept: a 4-DoF map needs gravity.
+  // prepare() then add_keyframe(), here. Keyframes of a frame not levelled to gravity (VO) are
+  // not kept: a 4-DoF map needs gravity.
   void on_keyframe(const MarginalizedKeyframe& keyframe) override;
+  // The keyframe's 3D features that have descriptors waiting (on the thread of
+  // on_keyframe_image, before kWindowSize more keyframe images arrive).
+  void prepare(const MarginalizedKeyframe& keyframe, LoopKeyframe* out) const override;
+  // Keeps the keyframe, queries, verifies and closes a loop (any thread, one at a time).
+  void add_keyframe(const LoopKeyframe& keyframe) override;
+  MapPlacement placement() const override {
+    return MapPlacement{started_, epoch_, session_placed_, T_map_odom_, corrections_};
+  }
 
   // T_map_odom of the odometry frame of epoch `odometry_epoch` (EstimatorOutput's); false while
   // that frame is not placed in the map (not levelled yet, or a new frame not yet relocalized).
@@ -160,8 +172,8 @@ class LoopCloser final : public KeyframeSink, public KeyframeImageSink, public M
   struct Pending;
 
   void describe(FrameId id, const ImageView& left, const FrameFeatures& features);
-  void keep(const MarginalizedKeyframe& k);
-  bool build_record(const MarginalizedKeyframe& k, std::uint32_t slot);
+  void keep(const LoopKeyframe& k);
+  void build_record(const LoopKeyframe& k, std::uint32_t slot);
   void make_room();
   void query(std::uint32_t slot);
   bool passes_gates(std::uint32_t q_slot, std::uint32_t c_slot, const LoopGeometry& g);
@@ -187,6 +199,7 @@ class LoopCloser final : public KeyframeSink, public KeyframeImageSink, public M
   std::unique_ptr<InvertedIndex> index_;
   std::unique_ptr<PoseGraph4Dof> graph_;
   std::unique_ptr<Pending[]> pending_;
+  std::unique_ptr<LoopKeyframe> prepared_;      // on_keyframe's
   std::size_t pending_next_ = 0;
   std::unique_ptr<Descriptor[]> scratch_;       // one keyframe's descriptors, for the vocabulary
   std::unique_ptr<std::int32_t[]> node_of_;     // per database slot: its pose-graph node, or -1

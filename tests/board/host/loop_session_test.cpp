@@ -54,7 +54,7 @@ double loop_stat(const std::string& stats, const std::string& key) {
   if (loop == std::string::npos) return std::nan("");
   const std::size_t k = stats.find("\"" + key + "\": ", loop);
   if (k == std::string::npos) return std::nan("");
-  const std::string v = stats.substr(k + key.size() + 4, 8);
+  const std::string v = stats.substr(k + key.size() + 4, 24);
   if (v.rfind("true", 0) == 0) return 1.0;
   if (v.rfind("false", 0) == 0) return 0.0;
   return std::strtod(v.c_str(), nullptr);
@@ -95,6 +95,29 @@ TEST_CASE("replay --vocabulary: the map trajectory equals the odometry until a l
     for (int i = 0; i < 7; ++i) CHECK(std::abs(pose[i] - odom.at(t)[i]) < 1e-6);
   }
   CHECK(slurp(dir + "/run/loops.csv").rfind("# t_query_s", 0) == 0);
+}
+
+// --loop needs no file: the built-in vocabulary. Without --deterministic the loop work runs on its
+// own thread and a replay hands it every keyframe; with it, on the frame thread.
+TEST_CASE("replay --loop: the built-in vocabulary, the loop work on its own thread", "[cli][loop]") {
+  const std::string dir = test::make_temp_dir("loop_builtin");
+  std::string out, err;
+  REQUIRE(run({"replay", test::euroc_micro_dir(), "--loop", "--out", dir + "/thread", "--quiet"}, &out, &err) == kExitOk);
+  INFO(out << err);
+  const std::string threaded = slurp(dir + "/thread/stats.json");
+  CHECK(threaded.find("\"vocabulary\": \"builtin:sim_k10l4\"") != std::string::npos);
+  CHECK(loop_stat(threaded, "vocabulary_checksum") == static_cast<double>(0x294545f3u));
+  CHECK(loop_stat(threaded, "thread") == 1.0);
+  CHECK(loop_stat(threaded, "keyframes_in") >= 5);
+  CHECK(loop_stat(threaded, "thread_queued") == loop_stat(threaded, "keyframes_in"));
+  CHECK(loop_stat(threaded, "thread_dropped") == 0);
+  CHECK(read_tum(dir + "/thread/trajectory_map.tum").size() >= 40);
+  REQUIRE(run({"replay", test::euroc_micro_dir(), "--loop", "--deterministic", "--out", dir + "/same", "--quiet"}, &out,
+              &err) == kExitOk);
+  const std::string same = slurp(dir + "/same/stats.json");
+  CHECK(loop_stat(same, "thread") == 0.0);
+  CHECK(loop_stat(same, "thread_queued") == 0);
+  CHECK(loop_stat(same, "keyframes_in") >= 5);
 }
 
 TEST_CASE("replay without --vocabulary has no loop closure and says so", "[cli][loop]") {
