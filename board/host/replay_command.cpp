@@ -99,9 +99,31 @@ eval::ReportBudget report_budget(const eval::ErrorBudget& b) {
 
 // report.html: what the run has today (features and timing per frame, the ground truth's path
 // when the dataset has one; the estimate and its error once the estimator exists).
+// Loop closure in the report: the map-frame trajectory (read back from trajectory_map.tum, aligned
+// like the estimate) and the accepted loops, times on the clock of the modes.
+void add_loops(const LoopSession& loop, const eval::EvalResult* accuracy, double t0_ns, eval::ReportData* data,
+               std::ostream& err) {
+  auto aligned = [&](const Eigen::Vector3d& p) { return accuracy != nullptr ? accuracy->ate.alignment.apply(p) : p; };
+  try {
+    for (const eval::StampedPose& pose : eval::read_tum(loop.map_trajectory_path().string()).poses) {
+      data->map_estimate.t_s.push_back((static_cast<double>(pose.t_ns) - t0_ns) * 1e-9);
+      data->map_estimate.p_w_m.push_back(aligned(pose.p_w_x));
+    }
+  } catch (const std::exception& e) {
+    err << "warning: the map-frame trajectory not shown in the report: " << e.what() << "\n";
+  }
+  const loop::LoopCloser& closer = loop.closer();
+  for (std::size_t i = 0; i < closer.num_events(); ++i) {
+    const loop::LoopEvent& e = closer.event(i);
+    data->loops.push_back({(static_cast<double>(e.t_query_ns) - t0_ns) * 1e-9, aligned(e.p_map_query),
+                           aligned(e.p_map_loop), e.inliers, e.correction_m, e.correction_deg, e.relocalization});
+  }
+}
+
 void write_report(const std::string& dataset, const hal::EurocReader& reader, const ReplayPipeline& pipeline,
                   const ReplaySummary& summary, const eval::EvalResult* accuracy,
-                  const eval::ErrorBudget* budget, const std::filesystem::path& path, std::ostream& err) {
+                  const eval::ErrorBudget* budget, const LoopSession* loop, const std::filesystem::path& path,
+                  std::ostream& err) {
   eval::ReportData data;
   data.title = "umsvins replay: " + dataset;
   data.summary = {{"dataset", dataset},
@@ -125,6 +147,7 @@ void write_report(const std::string& dataset, const hal::EurocReader& reader, co
     data.estimate.t_s = fs.est_t_s;
     for (const Eigen::Vector3d& p : fs.est_p_w_m)
       data.estimate.p_w_m.push_back(accuracy != nullptr ? accuracy->ate.alignment.apply(p) : p);
+    if (loop != nullptr) add_loops(*loop, accuracy, t0, &data, err);
   }
   const ReplayPipeline::FrameSeries& s = pipeline.series();
   data.features.t_s = s.t_s;
@@ -339,7 +362,7 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
     for (std::size_t i = 0; i < accuracy->ate.t_s.size(); ++i) csv << accuracy->ate.t_s[i] << "," << accuracy->ate.error_m[i] << "\n";
     write_file(out_dir / "ate_errors.csv", csv.str());
   }
-  write_report(dataset, reader, pipeline, summary, accuracy.get(), budget.get(), out_dir / "report.html", err);
+  write_report(dataset, reader, pipeline, summary, accuracy.get(), budget.get(), loop.get(), out_dir / "report.html", err);
 
   out << "replay: " << summary.frames << " stereo pairs, " << summary.imu_samples
       << " IMU samples, " << summary.duration_s << " s of data in " << wall_s << " s ("

@@ -366,7 +366,7 @@ bool LoopCloser::close_loop(std::uint32_t q_slot, std::uint32_t c_slot, const Lo
   e = LoopEvent{q.t_ns, c.t_ns, q.id, c.id, g.inliers,
                 (q.T_map_b.translation() - T_map_q_before.translation()).norm(),
                 angle_deg(T_map_q_before.linear().transpose() * q.T_map_b.linear()), relocalization,
-                g.T_c_q};
+                g.T_c_q, q.T_map_b.translation(), c.T_map_b.translation()};
   stats_.max_correction_m = std::max(stats_.max_correction_m, e.correction_m);
   return true;
 }

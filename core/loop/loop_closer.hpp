@@ -117,6 +117,8 @@ struct LoopEvent {
   double correction_m = 0.0, correction_deg = 0.0;  // change of the map pose of the query keyframe
   bool relocalization = false;
   Eigen::Isometry3d T_loop_query = Eigen::Isometry3d::Identity();  // measured, body frames
+  // m, the two keyframes' bodies in the map frame once the loop closed (for plots)
+  Eigen::Vector3d p_map_query = Eigen::Vector3d::Zero(), p_map_loop = Eigen::Vector3d::Zero();
 };
 
 class LoopCloser final : public KeyframeSink, public KeyframeImageSink, public MapFrameSource, public LoopSteps {

@@ -40,6 +40,7 @@ struct Series {
   std::string color;
   std::string label;
   bool step = false;  // draw as steps (counts per frame)
+  bool pairs = false; // points 2i and 2i+1 joined by a line each (loops), not one polyline
 };
 
 struct Range {
@@ -152,6 +153,14 @@ std::string line_chart(const std::string& title, const std::string& xlabel, cons
     if (n == 0) continue;
     // Thin long series so a 3-minute run stays a few hundred kB.
     const std::size_t stride = std::max<std::size_t>(1, n / 3000);
+    if (s.pairs) {
+      for (std::size_t i = 0; i + 1 < n; i += 2) {
+        o << "<line x1='" << num(X(s.x[i]), 1) << "' y1='" << num(Y(s.y[i]), 1) << "' x2='" << num(X(s.x[i + 1]), 1)
+          << "' y2='" << num(Y(s.y[i + 1]), 1) << "' stroke='" << s.color << "' stroke-width='1.2'/>"
+          << "<circle cx='" << num(X(s.x[i]), 1) << "' cy='" << num(Y(s.y[i]), 1) << "' r='2.5' fill='" << s.color
+          << "'/>";
+      }
+    } else {
     o << "<polyline fill='none' stroke='" << s.color << "' stroke-width='1.4' points='";
     double prev_y = 0.0;
     for (std::size_t i = 0; i < n; i += stride) {
@@ -161,6 +170,7 @@ std::string line_chart(const std::string& title, const std::string& xlabel, cons
       prev_y = s.y[i];
     }
     o << "'/>";
+    }
     if (!s.label.empty()) {
       o << "<line x1='" << ml + pw - 120 << "' y1='" << legend_y - 4 << "' x2='" << ml + pw - 100 << "' y2='"
         << legend_y - 4 << "' stroke='" << s.color << "' stroke-width='3'/><text x='" << ml + pw - 95 << "' y='"
@@ -293,6 +303,35 @@ std::vector<double> component(const ReportPositions& p, int axis) {
 
 std::vector<double> to_double(const std::vector<int>& v) { return std::vector<double>(v.begin(), v.end()); }
 
+// The loops as pairs of points (query keyframe first) for the top view.
+Series loop_pairs(const std::vector<ReportLoop>& loops) {
+  Series s;
+  s.color = kPalette[2];
+  s.label = "loops (" + std::to_string(loops.size()) + ")";
+  s.pairs = true;
+  for (const ReportLoop& l : loops) {
+    s.x.insert(s.x.end(), {l.p_query_m.x(), l.p_loop_m.x()});
+    s.y.insert(s.y.end(), {l.p_query_m.y(), l.p_loop_m.y()});
+  }
+  return s;
+}
+
+std::string loop_table(const std::vector<ReportLoop>& loops) {
+  std::ostringstream o;
+  o << "<h2>Loops</h2><table><tr><td>t [s]</td><td>query - loop [m]</td><td>inliers</td><td>correction [m]</td>"
+       "<td>correction [deg]</td><td>kind</td></tr>";
+  const std::size_t shown = std::min<std::size_t>(loops.size(), 200);
+  for (std::size_t i = 0; i < shown; ++i) {
+    const ReportLoop& l = loops[i];
+    o << "<tr><td>" << num(l.t_s, 2) << "</td><td>" << num((l.p_query_m - l.p_loop_m).norm(), 3) << "</td><td>"
+      << l.inliers << "</td><td>" << num(l.correction_m, 4) << "</td><td>" << num(l.correction_deg, 3) << "</td><td>"
+      << (l.relocalization ? "relocalization" : "loop") << "</td></tr>";
+  }
+  o << "</table>";
+  if (shown < loops.size()) o << "<p>" << loops.size() - shown << " more in loops.csv</p>";
+  return o.str() + "\n";
+}
+
 }  // namespace
 
 std::string render_report_html(const ReportData& d) {
@@ -313,6 +352,10 @@ std::string render_report_html(const ReportData& d) {
     std::vector<Series> s;
     if (!d.groundtruth.p_w_m.empty()) s.push_back({component(d.groundtruth, 0), component(d.groundtruth, 1), kColorGt, "ground truth", false});
     if (!d.estimate.p_w_m.empty()) s.push_back({component(d.estimate, 0), component(d.estimate, 1), kColorEst, "estimate", false});
+    if (!d.map_estimate.p_w_m.empty()) {
+      s.push_back({component(d.map_estimate, 0), component(d.map_estimate, 1), kPalette[0], "map frame (loops)", false});
+    }
+    if (!d.loops.empty()) s.push_back(loop_pairs(d.loops));
     o << line_chart("Top view (x-y)", "x [m]", "y [m]", s, true);
   }
   {
@@ -329,6 +372,7 @@ std::string render_report_html(const ReportData& d) {
     o << line_chart(std::string(axes[a]) + " over time", "t [s]", std::string(axes[a]) + " [m]", s, false, 370, 260);
   }
   o << "</div>\n";
+  if (!d.loops.empty()) o << loop_table(d.loops);
   if (d.budget.present) {
     o << "<h2>Error budget</h2><div class='row'>" << budget_chart(d.budget, d.modes, d.end_t_s) << "<div>"
       << budget_table(d.budget) << "</div></div>\n";

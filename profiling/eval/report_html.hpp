@@ -57,11 +57,25 @@ struct ReportBudget {
   std::string worst_mode;
 };
 
+// An accepted loop (loop closure): the two keyframes' positions in the map frame after it closed.
+struct ReportLoop {
+  double t_s = 0.0;                   // s, the query keyframe, on the first-frame clock
+  Eigen::Vector3d p_query_m = Eigen::Vector3d::Zero();
+  Eigen::Vector3d p_loop_m = Eigen::Vector3d::Zero();
+  int inliers = 0;
+  double correction_m = 0.0, correction_deg = 0.0;
+  bool relocalization = false;
+};
+
 struct ReportData {
   std::string title = "UMS-VINS run";
   std::vector<std::pair<std::string, std::string>> summary;  // key/value table at the top
   ReportPositions estimate;
   ReportPositions groundtruth;        // may be empty (no ground truth)
+  // Loop closure (may be empty): the map-frame trajectory (aligned like the estimate) and the
+  // accepted loops, drawn on the top view and listed.
+  ReportPositions map_estimate;
+  std::vector<ReportLoop> loops;
   std::vector<double> error_t_s;      // s; ATE per matched pose (may be empty)
   std::vector<double> error_m;        // m
   std::vector<ReportStageTiming> stage_timings;

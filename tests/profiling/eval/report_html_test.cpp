@@ -83,6 +83,29 @@ TEST_CASE("report.html is one self-contained document with every section", "[eva
   CHECK(html.find("nan") == std::string::npos);
 }
 
+// Loop closure: the map-frame trajectory and one line per accepted loop on the top view (from the
+// query keyframe to the loop keyframe), and the loops' table; no section without loops.
+TEST_CASE("report.html draws the loops on the top view and lists them", "[eval][report][loop]") {
+  ReportData d = example_report();
+  const std::string without = render_report_html(d);
+  CHECK(without.find("<h2>Loops</h2>") == std::string::npos);
+  CHECK(without.find("map frame (loops)") == std::string::npos);
+  d.map_estimate = d.groundtruth;
+  d.loops.push_back({12.5, Eigen::Vector3d(2.0, 0.0, 1.0), Eigen::Vector3d(1.9, 0.1, 1.0), 87, 0.0123, 0.21, false});
+  d.loops.push_back({18.0, Eigen::Vector3d(-1.0, 1.0, 1.0), Eigen::Vector3d(-1.1, 1.0, 1.0), 40, 0.3, 2.5, true});
+  const std::string html = render_report_html(d);
+  for (const char* s : {"map frame (loops)", "loops (2)", "<h2>Loops</h2>", "<td>12.50</td>", "<td>87</td>",
+                        "<td>0.0123</td>", "<td>relocalization</td>", "<td>0.141</td>"}) {
+    INFO(s);
+    CHECK(html.find(s) != std::string::npos);
+  }
+  // One line per loop with a dot on its query end.
+  std::size_t circles = 0;
+  for (std::size_t at = html.find("<circle"); at != std::string::npos; at = html.find("<circle", at + 1)) ++circles;
+  CHECK(circles == 2);
+  CHECK(html.find("nan") == std::string::npos);
+}
+
 // The error budget section: the error plot with the mode phases shaded (one band per mode span, in
 // the mode timeline's colours) and the worst window outlined, and the table of per-mode figures.
 TEST_CASE("report.html shows the error budget plot and table when given one", "[eval][report][budget]") {
