@@ -232,16 +232,8 @@ int run_live(const std::vector<std::string>& argv, std::ostream& out, std::ostre
     mavlink->output().write_stats(w);
     if (!mavlink->close()) err << "warning: " << (out_dir / "mavlink_sent.csv").string() << ": write failed\n";
   }
-  bool failed_write = false;  // an output that could not be written: exit 1 after the rest
-  if (loop != nullptr) {
-    loop->detach(pipeline);
-    const std::string loop_error = loop->finish();
-    if (!loop_error.empty()) {
-      err << "umsvins: " << loop_error << "\n";
-      failed_write = true;
-    }
-    loop->write_stats(w);
-  }
+  // An output that could not be written: exit 1 after the rest.
+  const bool failed_write = !finish_loop(loop.get(), pipeline, w, err);
   w.begin_object("bridge")
       .value("imu_dropped", bridge->imu_dropped())
       .value("frames_dropped", bridge->frames_dropped())

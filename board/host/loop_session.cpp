@@ -177,6 +177,18 @@ void LoopSession::write_stats(JsonWriter& w) const {
       .end_object();
 }
 
+bool finish_loop(LoopSession* loop, ReplayPipeline& pipeline, JsonWriter& w, std::ostream& err) {
+  if (loop == nullptr) {
+    w.begin_object("loop").value("enabled", false).end_object();
+    return true;
+  }
+  loop->detach(pipeline);
+  const std::string error = loop->finish();
+  if (!error.empty()) err << "umsvins: " << error << "\n";
+  loop->write_stats(w);
+  return error.empty();
+}
+
 std::unique_ptr<LoopSession> loop_from_args(const Args& args, const AppConfig& config,
                                             const std::filesystem::path& out_dir, LoopThreading threading) {
   const std::optional<std::string> vocabulary = args.get("vocabulary");

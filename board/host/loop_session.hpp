@@ -17,6 +17,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <ostream>
 #include <string>
 
 #include "board/config/app_config.hpp"
@@ -90,6 +91,10 @@ class LoopSession final : public PoseSink {
   std::size_t startup_bytes_ = 0;
   double spread_s_ = 0.0;
 };
+
+// At the end of a run: detaches the session, finishes its outputs and writes stats.json's "loop"
+// ({"enabled": false} without a session). false when an output failed (said on err).
+bool finish_loop(LoopSession* loop, ReplayPipeline& pipeline, JsonWriter& w, std::ostream& err);
 
 // The session asked for by --vocabulary, or nullptr; its loop work on a thread unless
 // `same_thread` (--deterministic), a live run dropping keyframes the thread cannot take.

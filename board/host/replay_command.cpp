@@ -321,18 +321,8 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
     mavlink->output().write_stats(w);
     if (!mavlink->close()) err << "warning: " << (out_dir / "mavlink_sent.csv").string() << ": write failed\n";
   }
-  bool failed_write = false;  // an output that could not be written: exit 1 after the rest
-  if (loop != nullptr) {
-    loop->detach(pipeline);
-    const std::string loop_error = loop->finish();
-    if (!loop_error.empty()) {
-      err << "umsvins: " << loop_error << "\n";
-      failed_write = true;
-    }
-    loop->write_stats(w);
-  } else {
-    w.begin_object("loop").value("enabled", false).end_object();
-  }
+  // An output that could not be written: exit 1 after the rest.
+  const bool failed_write = !finish_loop(loop.get(), pipeline, w, err);
   if (accuracy != nullptr) {
     w.begin_object("accuracy")
         .value("align", "se3")
