@@ -91,7 +91,8 @@ def check_loops(run_dir, t_gt, T_gt):
         e_m, e_deg = norm(E[1]), rot_deg(E[0])
         bad = e_m > 0.1 or e_deg > 2.0
         false_loops += bad
-        rows.append((tq, tc, int(v[4]), e_m, e_deg, bad, int(v[7])))
+        sigma = (float(v[15]), float(v[16])) if len(v) > 16 else None
+        rows.append((tq, tc, int(v[4]), e_m, e_deg, bad, int(v[7]), sigma))
     return rows, false_loops
 
 
@@ -130,9 +131,10 @@ def main():
     t_gt, T_gt = read_groundtruth(a.groundtruth)
     rows, false_loops = check_loops(a.run_dir, t_gt, T_gt)
     t0 = t_gt[0]
-    for tq, tc, inl, e_m, e_deg, bad, reloc in rows:
+    for tq, tc, inl, e_m, e_deg, bad, reloc, sigma in rows:
+        stated = f"  sigma {sigma[0]:.4f} m {sigma[1]:.3f} deg" if sigma else ""
         print(f"loop {(tq - t0) * 1e-9:7.2f} s -> {(tc - t0) * 1e-9:7.2f} s  inliers {inl:3d}  "
-              f"error {e_m:.4f} m {e_deg:.3f} deg{'  FALSE' if bad else ''}{'  (relocalization)' if reloc else ''}")
+              f"error {e_m:.4f} m {e_deg:.3f} deg{stated}{'  FALSE' if bad else ''}{'  (relocalization)' if reloc else ''}")
     errs = [r[3] for r in rows]
     print(f"loops: {len(rows)} accepted, {false_loops} false (> 0.1 m or 2 deg); "
           f"max error {max(errs) if errs else 0:.4f} m, {max([r[4] for r in rows]) if rows else 0:.3f} deg")

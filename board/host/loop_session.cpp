@@ -104,17 +104,18 @@ std::string LoopSession::finish() {
   const std::filesystem::path loops_path = out_dir_ / "loops.csv";
   std::ofstream csv(loops_path);
   csv << "# t_query_s,t_loop_s,query_frame,loop_frame,inliers,correction_m,correction_deg,relocalization,"
-         "x,y,z,qx,qy,qz,qw (T_loop_query: the query's body in the loop keyframe's body frame)\n";
-  char line[320];
+         "x,y,z,qx,qy,qz,qw,sigma_p_m,sigma_rot_deg (T_loop_query: the query's body in the loop keyframe's body "
+         "frame, and its 1-sigma)\n";
+  char line[400];
   for (std::size_t i = 0; i < closer_->num_events(); ++i) {
     const loop::LoopEvent& e = closer_->event(i);
     const Eigen::Vector3d t = e.T_loop_query.translation();
     const Eigen::Quaterniond q(e.T_loop_query.linear());
-    std::snprintf(line, sizeof(line), "%lld.%09lld,%lld.%09lld,%u,%u,%d,%.5f,%.4f,%d,%.6f,%.6f,%.6f,%.8f,%.8f,%.8f,%.8f\n",
+    std::snprintf(line, sizeof(line), "%lld.%09lld,%lld.%09lld,%u,%u,%d,%.5f,%.4f,%d,%.6f,%.6f,%.6f,%.8f,%.8f,%.8f,%.8f,%.5f,%.4f\n",
                   static_cast<long long>(e.t_query_ns / 1000000000), static_cast<long long>(e.t_query_ns % 1000000000),
                   static_cast<long long>(e.t_loop_ns / 1000000000), static_cast<long long>(e.t_loop_ns % 1000000000),
                   e.query, e.loop, e.inliers, e.correction_m, e.correction_deg, e.relocalization ? 1 : 0,
-                  t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w());
+                  t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w(), e.sigma_p_m, e.sigma_rot_deg);
     csv << line;
   }
   csv.flush();

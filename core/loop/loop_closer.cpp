@@ -81,6 +81,8 @@ void LoopOptions::validate() const {
   need(loop_interval_s >= 0.0, "loop_interval_s", loop_interval_s);
   need(blind_sigma_scale >= 1.0, "blind_sigma_scale", blind_sigma_scale);
   need(loop_sigma_p_m > 0.0 && loop_sigma_yaw_deg > 0.0, "loop_sigma_p_m", loop_sigma_p_m);
+  need(loop_sigma_fit_scale > 0.0, "loop_sigma_fit_scale", loop_sigma_fit_scale);
+  need(loop_sigma_min_p_m > 0.0 && loop_sigma_min_yaw_deg > 0.0, "loop_sigma_min_p_m", loop_sigma_min_p_m);
   need(verifier.min_matches >= 4, "verifier.min_matches", verifier.min_matches);
   need(verifier.max_hamming > 0 && verifier.max_hamming < 256, "verifier.max_hamming", verifier.max_hamming);
   need(verifier.ransac_iterations >= 1, "verifier.ransac_iterations", verifier.ransac_iterations);
@@ -349,7 +351,10 @@ bool LoopCloser::close_loop(std::uint32_t q_slot, std::uint32_t c_slot, const Lo
   const bool relocalization = !q.placed;
   if (relocalization) place_session(q, c.T_map_b * g.T_c_q, true);
   const Eigen::Isometry3d T_map_q_before = q.T_map_b;
-  loops_[n_loops_++] = LoopEdge{c_slot, q_slot, g.T_c_q};
+  loops_[n_loops_++] = LoopEdge{
+      c_slot, q_slot, g.T_c_q,
+      std::max(options_.loop_sigma_min_p_m, options_.loop_sigma_fit_scale * g.sigma_p_m),
+      std::max(options_.loop_sigma_min_yaw_deg / kDegPerRad, options_.loop_sigma_fit_scale * g.sigma_rot_rad)};
   if (!solve_graph()) {
     --n_loops_;
     if (relocalization) place_session(q, q.T_map_b, false);
@@ -366,7 +371,8 @@ bool LoopCloser::close_loop(std::uint32_t q_slot, std::uint32_t c_slot, const Lo
   e = LoopEvent{q.t_ns, c.t_ns, q.id, c.id, g.inliers,
                 (q.T_map_b.translation() - T_map_q_before.translation()).norm(),
                 angle_deg(T_map_q_before.linear().transpose() * q.T_map_b.linear()), relocalization,
-                g.T_c_q, q.T_map_b.translation(), c.T_map_b.translation()};
+                g.T_c_q, q.T_map_b.translation(), c.T_map_b.translation(), g.sigma_p_m,
+                g.sigma_rot_rad * kDegPerRad};
   stats_.max_correction_m = std::max(stats_.max_correction_m, e.correction_m);
   return true;
 }
@@ -417,7 +423,7 @@ bool LoopCloser::solve_graph() {
   for (std::size_t l = 0; l < n_loops_; ++l) {
     const std::int32_t a = node_of_[loops_[l].c_slot], b = node_of_[loops_[l].q_slot];
     if (a < 0 || b < 0) continue;
-    graph_->add_edge(a, b, loops_[l].T_c_q, options_.loop_sigma_p_m, options_.loop_sigma_yaw_deg / kDegPerRad, EdgeKind::kLoop);
+    graph_->add_edge(a, b, loops_[l].T_c_q, loops_[l].sigma_p_m, loops_[l].sigma_yaw_rad, EdgeKind::kLoop);
   }
   graph_->optimize(options_.graph);
   for (int i = 0; i < graph_->num_nodes(); ++i) db_->at(slot_of_[i]).T_map_b = graph_->pose(i);

@@ -55,16 +55,25 @@ struct LoopOptions {
   int protected_recent = 60;           // newest keyframes decimation never drops
   double loop_interval_s = 1.0;        // s, no query for this long after an accepted loop
   // Pose-graph odometry edge between consecutive keyframes: base + per metre between them
-  // (VIO drifts well under 1 % of the distance; a loop must not bend the odometry locally).
-  double odom_sigma_p_m = 0.002;
+  // (VIO drifts well under 1 % of the distance; a loop must not bend the odometry locally). The
+  // base is per keyframe (tens of ms apart): larger, it random-walks to centimetres over a hover
+  // of a few hundred keyframes, which VIO does not drift, and every loop's noise bends the map.
+  double odom_sigma_p_m = 0.0005;
   double odom_sigma_p_per_m = 0.01;
-  double odom_sigma_yaw_deg = 0.02;
+  double odom_sigma_yaw_deg = 0.005;
   double odom_sigma_yaw_deg_per_m = 0.1;
   // An odometry edge touching a keyframe with fewer than min_features 3D features was flown on
   // the IMU (vision lost: dark, blackout): its sigmas times this, so the first loop afterwards
   // moves the map to where the images say instead of trusting the dead reckoning.
   double blind_sigma_scale = 100.0;
-  double loop_sigma_p_m = 0.03;        // loop edge (robust)
+  // A loop edge's sigmas: the verifier's 1-sigma of the measured pose (from its fit's information
+  // and residual variance; V102: errors against ground truth 1.6 sigma on average, as a 3D
+  // Gaussian's norm should be) times loop_sigma_fit_scale, at least the floors. Loops read from a
+  // map file keep no sigma: loop_sigma_p_m and loop_sigma_yaw_deg.
+  double loop_sigma_fit_scale = 1.5;
+  double loop_sigma_min_p_m = 0.002;
+  double loop_sigma_min_yaw_deg = 0.02;
+  double loop_sigma_p_m = 0.03;
   double loop_sigma_yaw_deg = 0.5;
   LoopVerifierOptions verifier;
   // Loop edges passed the gates (the drift budget among them): the robust loss only guards
@@ -119,6 +128,7 @@ struct LoopEvent {
   Eigen::Isometry3d T_loop_query = Eigen::Isometry3d::Identity();  // measured, body frames
   // m, the two keyframes' bodies in the map frame once the loop closed (for plots)
   Eigen::Vector3d p_map_query = Eigen::Vector3d::Zero(), p_map_loop = Eigen::Vector3d::Zero();
+  double sigma_p_m = 0.0, sigma_rot_deg = 0.0;  // the measured pose's uncertainty (LoopGeometry's)
 };
 
 class LoopCloser final : public KeyframeSink, public KeyframeImageSink, public MapFrameSource, public LoopSteps {
@@ -209,6 +219,7 @@ class LoopCloser final : public KeyframeSink, public KeyframeImageSink, public M
   struct LoopEdge {
     std::uint32_t c_slot, q_slot;
     Eigen::Isometry3d T_c_q;
+    double sigma_p_m, sigma_yaw_rad;
   };
   std::unique_ptr<LoopEdge[]> loops_;
   std::size_t n_loops_ = 0;

@@ -146,7 +146,8 @@ void LoopCloser::read_map_records(const std::vector<std::uint8_t>& bytes, const 
       throw unusable(source, "loop " + std::to_string(l) + " is malformed");
     }
     if (apply) {
-      loops_[n_loops_++] = LoopEdge{slot_of_[a], slot_of_[b], T};
+      loops_[n_loops_++] = LoopEdge{slot_of_[a], slot_of_[b], T, options_.loop_sigma_p_m,
+                                    options_.loop_sigma_yaw_deg * M_PI / 180.0};
       ++db_->at(slot_of_[a]).loops;
       ++db_->at(slot_of_[b]).loops;
     }

@@ -1,5 +1,11 @@
 #include "core/loop/loop_verifier.hpp"
 
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <Eigen/Eigenvalues>
+
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 
@@ -134,7 +140,27 @@ bool LoopVerifier::refine(const KeyframeRecord& q, const KeyframeRecord& c, Loop
   out->T_c_q = T;
   out->inliers = count_inliers(q, c, T, mask_.get(), options_.inlier_rad);
   out->rms_rad = r.rms_rad;
+  uncertainty(q, c, out);
   return true;
+}
+
+void LoopVerifier::uncertainty(const KeyframeRecord& q, const KeyframeRecord& c, LoopGeometry* out) const {
+  Eigen::Matrix<double, 6, 6> H;
+  double squared_sum = 0.0;
+  int rows = 0;
+  both_ways_residual_sum(q, c, out->T_c_q, &H, &squared_sum, &rows);
+  const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> ldlt(H);
+  if (rows <= 6 || ldlt.info() != Eigen::Success) {
+    out->sigma_p_m = out->sigma_rot_rad = std::numeric_limits<double>::infinity();
+    return;
+  }
+  const double variance = squared_sum / static_cast<double>(rows - 6);
+  const Eigen::Matrix<double, 6, 6> cov = variance * ldlt.solve(Eigen::Matrix<double, 6, 6>::Identity());
+  // Largest axis: the position block is in the query's body frame, a rotation keeps its eigenvalues.
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> rot(cov.topLeftCorner<3, 3>());
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> pos(cov.bottomRightCorner<3, 3>());
+  out->sigma_rot_rad = std::sqrt(std::max(0.0, rot.eigenvalues().maxCoeff()));
+  out->sigma_p_m = std::sqrt(std::max(0.0, pos.eigenvalues().maxCoeff()));
 }
 
 namespace {
@@ -152,7 +178,8 @@ Eigen::Vector2d bearing_error(const Eigen::Vector3d& b, const Eigen::Vector3d& p
 
 Eigen::Matrix<double, 6, 1> LoopVerifier::both_ways_residual_sum(const KeyframeRecord& q, const KeyframeRecord& c,
                                                                 const Eigen::Isometry3d& T_c_q,
-                                                                Eigen::Matrix<double, 6, 6>* H) const {
+                                                                Eigen::Matrix<double, 6, 6>* H, double* squared_sum,
+                                                                int* rows) const {
   // Numeric Jacobians in the tangent of T_c_q (right perturbation [dtheta, dp]): small, off the
   // frame path, and exact enough for a few Gauss-Newton steps.
   H->setZero();
@@ -180,6 +207,8 @@ Eigen::Matrix<double, 6, 1> LoopVerifier::both_ways_residual_sum(const KeyframeR
     }
     *H += J.transpose() * J;
     g += J.transpose() * r0;
+    if (squared_sum != nullptr) *squared_sum += r0.squaredNorm();
+    if (rows != nullptr) *rows += 4;
   }
   return g;
 }

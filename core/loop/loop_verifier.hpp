@@ -27,6 +27,10 @@ struct LoopGeometry {
   int matches = 0;                 // mutual descriptor matches
   int inliers = 0;                 // after the PnP refinement
   double rms_rad = 0.0;            // over the inliers
+  // 1-sigma of the relative pose from the last fit's information (J^T J over the inliers' bearing
+  // errors in both keyframes, scaled by their residual variance): largest axis, m and rad.
+  double sigma_p_m = 0.0;
+  double sigma_rot_rad = 0.0;
   Eigen::Isometry3d T_c_q = Eigen::Isometry3d::Identity();  // query body in the candidate's body frame
 };
 
@@ -51,7 +55,10 @@ class LoopVerifier {
   // from the other): both stereo depths count, so neither keyframe's depth errors set the pose.
   void refine_both_ways(const KeyframeRecord& q, const KeyframeRecord& c, Eigen::Isometry3d* T_c_q) const;
   Eigen::Matrix<double, 6, 1> both_ways_residual_sum(const KeyframeRecord& q, const KeyframeRecord& c,
-                                                    const Eigen::Isometry3d& T_c_q, Eigen::Matrix<double, 6, 6>* H) const;
+                                                    const Eigen::Isometry3d& T_c_q, Eigen::Matrix<double, 6, 6>* H,
+                                                    double* squared_sum = nullptr, int* rows = nullptr) const;
+  // sigma_p_m and sigma_rot_rad of *out at out->T_c_q over the current inliers.
+  void uncertainty(const KeyframeRecord& q, const KeyframeRecord& c, LoopGeometry* out) const;
 
   LoopVerifierOptions options_;
   Eigen::Isometry3d T_b_c0_;
