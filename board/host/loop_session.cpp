@@ -147,7 +147,7 @@ void LoopSession::write_stats(JsonWriter& w) const {
       .value("sessions", s.sessions)
       .value("queries", s.queries)
       .value("queries_skipped", s.queries_skipped)
-      .value("loop_edges_full", s.loop_edges_full)
+      .value("loop_edges_retired", s.loop_edges_retired)
       .value("candidates", s.candidates)
       .value("accepted", s.accepted)
       .value("relocalizations", s.relocalizations);

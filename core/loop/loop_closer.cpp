@@ -82,6 +82,7 @@ void LoopOptions::validate() const {
   need(blind_sigma_scale >= 1.0, "blind_sigma_scale", blind_sigma_scale);
   need(loop_sigma_p_m > 0.0 && loop_sigma_yaw_deg > 0.0, "loop_sigma_p_m", loop_sigma_p_m);
   need(loop_sigma_fit_scale > 0.0, "loop_sigma_fit_scale", loop_sigma_fit_scale);
+  need(max_loop_residual_sigma > 0.0, "max_loop_residual_sigma", max_loop_residual_sigma);
   need(loop_sigma_min_p_m > 0.0 && loop_sigma_min_yaw_deg > 0.0, "loop_sigma_min_p_m", loop_sigma_min_p_m);
   need(verifier.min_matches >= 4, "verifier.min_matches", verifier.min_matches);
   need(verifier.max_hamming > 0 && verifier.max_hamming < 256, "verifier.max_hamming", verifier.max_hamming);
@@ -106,6 +107,7 @@ LoopCloser::LoopCloser(const LoopOptions& options, const RigCalibration& rig, co
       node_of_(new std::int32_t[capacity::kMaxKeyframes]),
       slot_of_(new std::uint32_t[capacity::kMaxKeyframes]),
       loops_(new LoopEdge[capacity::kMaxLoopEdges]),
+      saved_(new SavedPose[capacity::kMaxKeyframes]),
       events_(new LoopEvent[capacity::kMaxLoopEdges]) {
   if (vocabulary.empty()) throw std::invalid_argument("loop closure: the vocabulary is empty");
   calibration_hash_ = hash_calibration(rig);
@@ -342,22 +344,22 @@ bool LoopCloser::passes_gates(std::uint32_t q_slot, std::uint32_t c_slot, const 
 }
 
 bool LoopCloser::close_loop(std::uint32_t q_slot, std::uint32_t c_slot, const LoopGeometry& g) {
-  if (n_loops_ == capacity::kMaxLoopEdges) {
-    ++stats_.loop_edges_full;
-    return false;
-  }
+  if (n_loops_ == capacity::kMaxLoopEdges) retire_oldest_loop();
   KeyframeRecord& q = db_->at(q_slot);
   KeyframeRecord& c = db_->at(c_slot);
   const bool relocalization = !q.placed;
+  save_map_state();
   if (relocalization) place_session(q, c.T_map_b * g.T_c_q, true);
   const Eigen::Isometry3d T_map_q_before = q.T_map_b;
-  loops_[n_loops_++] = LoopEdge{
-      c_slot, q_slot, g.T_c_q,
-      std::max(options_.loop_sigma_min_p_m, options_.loop_sigma_fit_scale * g.sigma_p_m),
-      std::max(options_.loop_sigma_min_yaw_deg / kDegPerRad, options_.loop_sigma_fit_scale * g.sigma_rot_rad)};
-  if (!solve_graph()) {
+  const LoopEdge edge{c_slot, q_slot, g.T_c_q,
+                      std::max(options_.loop_sigma_min_p_m, options_.loop_sigma_fit_scale * g.sigma_p_m),
+                      std::max(options_.loop_sigma_min_yaw_deg / kDegPerRad, options_.loop_sigma_fit_scale * g.sigma_rot_rad)};
+  loops_[n_loops_++] = edge;
+  // The solved graph must agree with the loop: one it can only hold off under the robust loss
+  // (a place that looks like another, within the drift budget of a long path) is refused.
+  if (!solve_graph() || loop_residual_sigma(edge) > options_.max_loop_residual_sigma) {
     --n_loops_;
-    if (relocalization) place_session(q, q.T_map_b, false);
+    restore_map_state();
     reject(LoopGate::kPoseGraph);
     return false;
   }
@@ -375,6 +377,41 @@ bool LoopCloser::close_loop(std::uint32_t q_slot, std::uint32_t c_slot, const Lo
                 g.sigma_rot_rad * kDegPerRad};
   stats_.max_correction_m = std::max(stats_.max_correction_m, e.correction_m);
   return true;
+}
+
+double LoopCloser::loop_residual_sigma(const LoopEdge& l) const {
+  const Eigen::Isometry3d E = (db_->at(l.c_slot).T_map_b * l.T_c_q).inverse() * db_->at(l.q_slot).T_map_b;
+  return std::max(E.translation().norm() / l.sigma_p_m, std::abs(wrap_rad(yaw_of(E.linear()))) / l.sigma_yaw_rad);
+}
+
+void LoopCloser::save_map_state() {
+  for (std::int32_t s = db_->oldest(); s >= 0; s = db_->at(s).next) {
+    saved_[s] = SavedPose{db_->at(s).T_map_b, db_->at(s).placed};
+  }
+  saved_T_map_odom_ = T_map_odom_;
+  saved_session_placed_ = session_placed_;
+  saved_corrections_ = corrections_;
+}
+
+void LoopCloser::restore_map_state() {
+  for (std::int32_t s = db_->oldest(); s >= 0; s = db_->at(s).next) {
+    db_->at(s).T_map_b = saved_[s].T_map_b;
+    db_->at(s).placed = saved_[s].placed;
+  }
+  T_map_odom_ = saved_T_map_odom_;
+  session_placed_ = saved_session_placed_;
+  corrections_ = saved_corrections_;
+}
+
+void LoopCloser::retire_oldest_loop() {
+  // The newer loops cover the places flown again; the oldest edge's ends may be decimated again.
+  const LoopEdge& old = loops_[0];
+  for (std::uint32_t s : {old.c_slot, old.q_slot}) {
+    if (db_->at(s).loops > 0) --db_->at(s).loops;
+  }
+  for (std::size_t l = 1; l < n_loops_; ++l) loops_[l - 1] = loops_[l];
+  --n_loops_;
+  ++stats_.loop_edges_retired;
 }
 
 void LoopCloser::place_session(const KeyframeRecord& q, const Eigen::Isometry3d& T_map_q, bool placed) {
@@ -439,7 +476,8 @@ std::size_t LoopCloser::footprint_bytes() const {
   return db_->footprint_bytes() + index_->footprint_bytes() + graph_->footprint_bytes() +
          kPending * sizeof(Pending) + sizeof(LoopKeyframe) + capacity::kMaxLoopFeaturesPerKeyframe * sizeof(Descriptor) +
          capacity::kMaxKeyframes * (sizeof(std::int32_t) + sizeof(std::uint32_t)) +
-         capacity::kMaxLoopEdges * (sizeof(LoopEdge) + sizeof(LoopEvent)) + sizeof(*this);
+         capacity::kMaxLoopEdges * (sizeof(LoopEdge) + sizeof(LoopEvent)) +
+         capacity::kMaxKeyframes * sizeof(SavedPose) + sizeof(*this);
 }
 
 }  // namespace ums::loop

@@ -75,6 +75,9 @@ struct LoopOptions {
   double loop_sigma_min_yaw_deg = 0.02;
   double loop_sigma_p_m = 0.03;
   double loop_sigma_yaw_deg = 0.5;
+  // After the solve, a new loop edge left further than this (in its sigmas) from the solved poses
+  // is refused (gate pose_graph): the graph could only hold it off under the robust loss.
+  double max_loop_residual_sigma = 5.0;
   LoopVerifierOptions verifier;
   // Loop edges passed the gates (the drift budget among them): the robust loss only guards
   // against a loop far beyond them, 10 sigma = 0.3 m.
@@ -101,7 +104,7 @@ struct LoopStats {
   std::uint64_t index_full = 0;            // postings pool full (not indexed)
   std::uint64_t queries = 0;
   std::uint64_t queries_skipped = 0;       // within loop_interval_s of an accepted loop
-  std::uint64_t loop_edges_full = 0;       // loops verified but not kept: kMaxLoopEdges reached
+  std::uint64_t loop_edges_retired = 0;    // oldest loop edges dropped for new ones (kMaxLoopEdges)
   std::uint64_t keyframes_dropped = 0;     // database full and nothing may be decimated: not kept
   std::uint64_t candidates = 0;            // index hits examined
   std::uint64_t accepted = 0;
@@ -222,6 +225,19 @@ class LoopCloser final : public KeyframeSink, public KeyframeImageSink, public M
     double sigma_p_m, sigma_yaw_rad;
   };
   std::unique_ptr<LoopEdge[]> loops_;
+  // The map state before a loop's solve, restored when the loop is refused.
+  struct SavedPose {
+    Eigen::Isometry3d T_map_b;
+    bool placed;
+  };
+  std::unique_ptr<SavedPose[]> saved_;  // per database slot
+  Eigen::Isometry3d saved_T_map_odom_ = Eigen::Isometry3d::Identity();
+  bool saved_session_placed_ = false;
+  std::uint32_t saved_corrections_ = 0;
+  void save_map_state();
+  void restore_map_state();
+  void retire_oldest_loop();
+  double loop_residual_sigma(const LoopEdge& l) const;
   std::size_t n_loops_ = 0;
   std::unique_ptr<LoopEvent[]> events_;
   std::size_t n_events_ = 0;
