@@ -148,6 +148,7 @@ void LoopSession::write_stats(JsonWriter& w) const {
       .value("queries", s.queries)
       .value("queries_skipped", s.queries_skipped)
       .value("loop_edges_retired", s.loop_edges_retired)
+      .value("events_overwritten", s.events_overwritten)
       .value("candidates", s.candidates)
       .value("accepted", s.accepted)
       .value("relocalizations", s.relocalizations);

@@ -61,5 +61,6 @@ inline constexpr std::size_t kMaxKeyframes = 2000;             // keyframes in t
 inline constexpr std::size_t kMaxLoopFeaturesPerKeyframe = 300; // 3D features described per keyframe (paper: best 100-300)
 inline constexpr std::size_t kMaxVocabularyNodes = 111111;      // a complete k=10, L=5 tree (k=10, L=4: 11111)
 inline constexpr std::size_t kMaxLoopEdges = 500;              // loop edges in the 4-DoF pose graph (beside one odometry edge per keyframe)
+inline constexpr std::size_t kMaxLoopEvents = 4096;            // accepted loops logged for loops.csv (the newest kept: over an hour at one a second)
 inline constexpr std::size_t kLoopQueue = 8;                   // keyframes handed to the loop thread, the one it works on included (a pose-graph solve of ~200 ms is ~4 keyframes at 20 Hz)
 }  // namespace ums::capacity

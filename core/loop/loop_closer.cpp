@@ -108,7 +108,7 @@ LoopCloser::LoopCloser(const LoopOptions& options, const RigCalibration& rig, co
       slot_of_(new std::uint32_t[capacity::kMaxKeyframes]),
       loops_(new LoopEdge[capacity::kMaxLoopEdges]),
       saved_(new SavedPose[capacity::kMaxKeyframes]),
-      events_(new LoopEvent[capacity::kMaxLoopEdges]) {
+      events_(new LoopEvent[capacity::kMaxLoopEvents]) {
   if (vocabulary.empty()) throw std::invalid_argument("loop closure: the vocabulary is empty");
   calibration_hash_ = hash_calibration(rig);
 }
@@ -369,7 +369,8 @@ bool LoopCloser::close_loop(std::uint32_t q_slot, std::uint32_t c_slot, const Lo
   any_loop_ = true;
   last_loop_t_ns_ = q.t_ns;
   if (relocalization) ++stats_.relocalizations;
-  LoopEvent& e = events_[n_events_ < capacity::kMaxLoopEdges ? n_events_++ : capacity::kMaxLoopEdges - 1];
+  if (n_events_ >= capacity::kMaxLoopEvents) ++stats_.events_overwritten;
+  LoopEvent& e = events_[n_events_++ % capacity::kMaxLoopEvents];
   e = LoopEvent{q.t_ns, c.t_ns, q.id, c.id, g.inliers,
                 (q.T_map_b.translation() - T_map_q_before.translation()).norm(),
                 angle_deg(T_map_q_before.linear().transpose() * q.T_map_b.linear()), relocalization,
@@ -476,7 +477,7 @@ std::size_t LoopCloser::footprint_bytes() const {
   return db_->footprint_bytes() + index_->footprint_bytes() + graph_->footprint_bytes() +
          kPending * sizeof(Pending) + sizeof(LoopKeyframe) + capacity::kMaxLoopFeaturesPerKeyframe * sizeof(Descriptor) +
          capacity::kMaxKeyframes * (sizeof(std::int32_t) + sizeof(std::uint32_t)) +
-         capacity::kMaxLoopEdges * (sizeof(LoopEdge) + sizeof(LoopEvent)) +
+         capacity::kMaxLoopEdges * sizeof(LoopEdge) + capacity::kMaxLoopEvents * sizeof(LoopEvent) +
          capacity::kMaxKeyframes * sizeof(SavedPose) + sizeof(*this);
 }
 

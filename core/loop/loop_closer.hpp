@@ -17,6 +17,7 @@
 // KeyframeSink the closer runs both where it is called (--deterministic runs stay identical);
 // board/host/loop_worker runs the second on its own thread.
 
+#include <algorithm>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -105,6 +106,7 @@ struct LoopStats {
   std::uint64_t queries = 0;
   std::uint64_t queries_skipped = 0;       // within loop_interval_s of an accepted loop
   std::uint64_t loop_edges_retired = 0;    // oldest loop edges dropped for new ones (kMaxLoopEdges)
+  std::uint64_t events_overwritten = 0;    // accepted loops no longer in the event log
   std::uint64_t keyframes_dropped = 0;     // database full and nothing may be decimated: not kept
   std::uint64_t candidates = 0;            // index hits examined
   std::uint64_t accepted = 0;
@@ -163,8 +165,13 @@ class LoopCloser final : public KeyframeSink, public KeyframeImageSink, public M
   std::uint32_t corrections() const override { return corrections_; }
 
   const LoopStats& stats() const { return stats_; }
-  std::size_t num_events() const { return n_events_; }
-  const LoopEvent& event(std::size_t i) const { return events_[i]; }
+  // The accepted loops, oldest first: the newest kMaxLoopEvents (stats().events_overwritten more
+  // were accepted before them).
+  std::size_t num_events() const { return std::min(n_events_, capacity::kMaxLoopEvents); }
+  const LoopEvent& event(std::size_t i) const {
+    const std::size_t first = n_events_ > capacity::kMaxLoopEvents ? n_events_ - capacity::kMaxLoopEvents : 0;
+    return events_[(first + i) % capacity::kMaxLoopEvents];
+  }
   const KeyframeDatabase& database() const { return *db_; }
 
   // Map reuse: the keyframes placed in the map (poses, features, loops) as the bytes of a
