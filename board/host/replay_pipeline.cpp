@@ -320,6 +320,9 @@ void ReplayPipeline::write_estimator_stats(JsonWriter& w) const {
       .value("still_rejected_by_vision", e.still_rejected_by_vision)
       .value("resets", e.resets)
       .value("relevels", e.relevels)
+      .value("relocation_requests", e.relocation_requests)
+      .value("relocations_solved", e.relocations_solved)
+      .value("relocation_residuals", e.relocation_residuals)
       .end_object();
 }
 

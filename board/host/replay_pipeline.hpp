@@ -75,6 +75,7 @@ class ReplayPipeline final : public MeasurementSink {
   void set_keyframe_image_sink(KeyframeImageSink* sink) { vio_.set_keyframe_image_sink(sink); }
   // Keyframes leaving the window (none by default); not owned.
   void set_keyframe_sink(KeyframeSink* sink) { vio_.set_keyframe_sink(sink); }
+  void set_relocation_link(RelocationLink* link) { vio_.set_relocation_link(link); }
   // A third consumer of every pose (loop closure's map-frame poses); not owned.
   void set_map_pose_consumer(PoseSink* sink) { fanout_.set(2, sink); }
   std::uint64_t poses_written() const { return poses_.poses_written(); }

@@ -11,11 +11,13 @@
 
 namespace ums {
 
-enum class BlockKind : std::uint8_t { kPose = 0, kSpeedBias = 1, kExtrinsic = 2, kLandmark = 3 };
+// kRelocation: the loop keyframe's pose of a tightly coupled relocation (relocation.hpp), never
+// in the prior.
+enum class BlockKind : std::uint8_t { kPose = 0, kSpeedBias = 1, kExtrinsic = 2, kLandmark = 3, kRelocation = 4 };
 
 struct BlockName {
   BlockKind kind = BlockKind::kLandmark;
-  std::uint32_t owner = 0;  // FrameId for kPose / kSpeedBias, camera for kExtrinsic
+  std::uint32_t owner = 0;  // FrameId for kPose / kSpeedBias / kRelocation, camera for kExtrinsic
 };
 
 class BlockTable {

@@ -70,6 +70,7 @@ Estimator::Estimator(const EstimatorOptions& options, const RigCalibration& rig)
       landmarks_(std::make_unique<LandmarkMap>(landmark_options(options_))),
       marginalizer_(std::make_unique<Marginalizer>()),
       stage_backup_(std::make_unique<WindowBackup>()),
+      relocation_(std::make_unique<RelocationRequest>()),
       nav_(Eigen::Vector3d(0.0, 0.0, -options.gravity_m_s2)) {
   window_->extrinsics().set(rig.imu.T_b_i.inverse() * rig.cam[0].T_b_c, rig.imu.T_b_i.inverse() * rig.cam[1].T_b_c);
   window_->extrinsics().set_floating(options_.estimate_extrinsic);
@@ -94,7 +95,8 @@ std::size_t Estimator::footprint_bytes() const {
          capacity::kMaxVisualResiduals * sizeof(BearingResidual) + capacity::kMaxLandmarks * 2 * sizeof(int) +
          solver::capacity::kMaxParameterBlocks * sizeof(BlockName) + sizeof(Marginalizer) +
          2 * sizeof(solver::MarginalPrior) + sizeof(MarginalizedKeyframe) + 3 * sizeof(WindowBackup) +
-         sizeof(Initializer) + sizeof(PnpLocator) + capacity::kMaxLandmarks * (sizeof(PnpMatch) + 1 + 2);
+         sizeof(Initializer) + sizeof(PnpLocator) + sizeof(RelocationRequest) +
+         capacity::kMaxLoopFeaturesPerKeyframe * (sizeof(BearingResidual) + sizeof(int) + 3 * sizeof(LoopPointResidual)) + capacity::kMaxLandmarks * (sizeof(PnpMatch) + 1 + 2);
 }
 
 std::size_t Estimator::landmarks_in_use() const { return static_cast<std::size_t>(landmarks_->size()); }

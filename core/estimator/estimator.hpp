@@ -38,6 +38,7 @@
 #include "core/estimator/keyframe_sink.hpp"
 #include "core/estimator/mode_machine.hpp"
 #include "core/estimator/odometry_frame.hpp"
+#include "core/estimator/relocation.hpp"
 #include "core/frontend/frame_features.hpp"
 #include "core/frontend/keyframe_selector.hpp"
 #include "core/imu/propagation.hpp"
@@ -116,6 +117,9 @@ class Estimator {
   bool imu_rate_state(NavState* state) const;
   // Where keyframes leaving the window go (nullptr: nowhere); the sink outlives the estimator.
   void set_keyframe_sink(KeyframeSink* sink);
+  // Where tightly coupled relocations come from and their results go (nullptr: none); called on
+  // this thread, outlives the estimator.
+  void set_relocation_link(RelocationLink* link) { relocation_link_ = link; }
   OdometryFrame& odometry_frame() { return odom_; }
   const OdometryFrame& odometry_frame() const { return odom_; }
   const Window& window() const { return *window_; }
@@ -145,6 +149,8 @@ class Estimator {
   void hold_gauge(const Eigen::Isometry3d& T_w_b0_before);
   bool solve_stages(WindowFrame& f, SolveSpec* spec);
   void second_round(const SolveSpec& spec, bool converged);
+  bool begin_relocation();
+  void end_relocation(const Eigen::Isometry3d& T_b0_loop, const SolveSpec& spec);
   void apply(ModeEvent event);
 
   // Window upkeep.
@@ -169,6 +175,8 @@ class Estimator {
   std::unique_ptr<Initializer> initializer_;
   std::unique_ptr<PnpLocator> pnp_;
   std::unique_ptr<WindowBackup> stage_backup_;
+  RelocationLink* relocation_link_ = nullptr;
+  std::unique_ptr<RelocationRequest> relocation_;  // the one being solved
 
   ImuPropagator nav_;            // odometry frame
   OdometryFrame odom_;

@@ -112,12 +112,49 @@ void Estimator::frame_vio(WindowFrame& f, EstimatorTiming* timing) {
   SolveSpec spec;
   spec.imu = true;
   spec.prior = true;
+  const bool relocating = begin_relocation();
   const bool converged = solve_stages(f, &spec);
   timing->solve_round1_ms = static_cast<float>(ms_since(t1));
   const auto t2 = std::chrono::steady_clock::now();
   second_round(spec, converged);
   timing->solve_round2_ms = static_cast<float>(ms_since(t2));
+  // The loop keyframe's pose relative to the oldest frame, which hold_gauge() keeps in place.
+  const Eigen::Isometry3d T_b0_loop = relocating ? window_->T_w_b(window_->slot_at(0)).inverse() * builder_->relocation_pose()
+                                                 : Eigen::Isometry3d::Identity();
   hold_gauge(T_w_b0_before);
+  if (relocating) end_relocation(T_b0_loop, spec);
+}
+
+bool Estimator::begin_relocation() {
+  if (relocation_link_ == nullptr || !relocation_link_->take_relocation(relocation_.get())) return false;
+  ++stats_.relocation_requests;
+  const RelocationRequest& r = *relocation_;
+  if (r.odometry_epoch != static_cast<std::uint32_t>(stats_.resets + stats_.relevels)) {
+    // q's odometry frame is gone (a reset since): nothing in the window shares its landmarks.
+    RelocationResult none;
+    none.query = r.query;
+    none.loop = r.loop;
+    relocation_link_->on_relocated(none);
+    return false;
+  }
+  builder_->set_relocation(&r, r.T_odom_q * r.T_q_loop);
+  return true;
+}
+
+void Estimator::end_relocation(const Eigen::Isometry3d& T_b0_loop, const SolveSpec& spec) {
+  RelocationResult res;
+  res.query = relocation_->query;
+  res.loop = relocation_->loop;
+  res.residuals = builder_->relocation_residuals();
+  if (res.residuals > 0) {
+    res.inliers = builder_->relocation_inliers();
+    const Eigen::Isometry3d T_odom_loop = window_->T_w_b(window_->slot_at(0)) * T_b0_loop;
+    res.T_loop_query = T_odom_loop.inverse() * relocation_->T_odom_q;
+    ++stats_.relocations_solved;
+    stats_.relocation_residuals += static_cast<std::uint64_t>(res.residuals);
+  }
+  builder_->clear_relocation(spec);
+  relocation_link_->on_relocated(res);
 }
 
 bool Estimator::solve_stages(WindowFrame& f, SolveSpec* spec) {

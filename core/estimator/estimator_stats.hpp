@@ -58,6 +58,10 @@ struct EstimatorStats {
   std::uint64_t frames_out_of_order = 0;  // frames not after the previous one: not processed
   std::uint64_t keyframes_emitted = 0;    // keyframes handed to the KeyframeSink
   std::uint64_t frames_without_pose = 0;  // IMU_ONLY before the velocity was ever known
+  // Tightly coupled relocation (relocation.hpp).
+  std::uint64_t relocation_requests = 0;   // taken from the loop closer
+  std::uint64_t relocations_solved = 0;    // with the loop keyframe's pose in the solve
+  std::uint64_t relocation_residuals = 0;  // summed over those
 };
 
 }  // namespace ums

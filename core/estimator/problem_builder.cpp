@@ -6,6 +6,7 @@
 #include "core/estimator/landmark_map.hpp"
 #include "core/estimator/marginalizer.hpp"
 #include "core/estimator/relative_pose_cache.hpp"
+#include "core/estimator/state_blocks.hpp"
 #include "core/estimator/visual_edges.hpp"
 #include "solver/marginal_prior.hpp"
 #include "solver/problem.hpp"
@@ -26,7 +27,10 @@ ProblemBuilder::ProblemBuilder(const ProblemBuilderOptions& options, Window* win
       pose_cache_(std::make_unique<RelativePoseCache>()),
       visual_(new BearingResidual[kMaxVisualResiduals]),
       chosen_(new int[capacity::kMaxLandmarks]),
-      block_of_landmark_(new int[capacity::kMaxLandmarks]) {
+      block_of_landmark_(new int[capacity::kMaxLandmarks]),
+      relocation_res_(new BearingResidual[capacity::kMaxLoopFeaturesPerKeyframe]),
+      relocation_match_(new int[capacity::kMaxLoopFeaturesPerKeyframe]),
+      loop_points_(new LoopPointResidual[capacity::kMaxLoopFeaturesPerKeyframe * kLoopPointViews]) {
   static_assert(Window::kSlots <= RelativePoseCache::kMaxFrames, "the pose cache holds every frame slot");
   for (int s = 0; s < Window::kSlots; ++s) pose_cache_->bind_frame(s, window_->slot(s).pose);
   for (int c = 0; c < 2; ++c) pose_cache_->bind_extrinsic(c, window_->extrinsics().block(c));
@@ -46,6 +50,13 @@ void ProblemBuilder::set_init_prior(const SpeedBiasPrior::Vector9& target, const
   init_prior_frame_ = id;
 }
 
+
+void ProblemBuilder::clear_relocation(const SolveSpec& spec) {
+  const bool in_problem = n_relocation_ > 0;
+  relocation_ = nullptr;
+  n_relocation_ = n_loop_points_ = 0;
+  if (in_problem) build(spec);
+}
 
 bool ProblemBuilder::solve(const SolveSpec& spec, int max_iterations, double max_time_s, bool* converged) {
   build(spec);
@@ -68,6 +79,7 @@ int ProblemBuilder::build(const SolveSpec& spec) {
   n_selected_group_[0] = n_selected_group_[1] = n_selected_group_[2] = 0;
   add_state_blocks(spec);
   add_landmarks(spec.groups);
+  if (relocation_ != nullptr && spec.imu) add_relocation_terms();
   stats_->peak_residuals = std::max(stats_->peak_residuals, static_cast<std::size_t>(n_visual_));
   if (spec.imu) add_imu_terms();
   if (spec.prior && !marginalizer_->empty()) add_marginal_prior();
@@ -95,6 +107,8 @@ void ProblemBuilder::add_state_blocks(const SolveSpec& spec) {
 }
 
 void ProblemBuilder::add_landmarks(std::uint8_t groups) {
+  // A relocation looks its landmarks up by pool index: those not chosen must read as absent.
+  if (relocation_ != nullptr) std::fill(block_of_landmark_.get(), block_of_landmark_.get() + capacity::kMaxLandmarks, -1);
   const int keep = select_landmarks(*landmarks_, groups, options_.selection, chosen_.get());
   for (int c = 0; c < keep; ++c) {
     const int idx = chosen_[c];
@@ -180,6 +194,105 @@ void ProblemBuilder::add_marginal_prior() {
     marginalizer_->clear();  // a frame of the prior left without marginalization: cannot happen
     ++stats_->marginalization_failures;
   }
+}
+
+void ProblemBuilder::set_relocation(const RelocationRequest* request, const Eigen::Isometry3d& T_odom_loop) {
+  relocation_ = request;
+  n_relocation_ = 0;
+  pose_from_iso(T_odom_loop, relocation_pose_);
+}
+
+Eigen::Isometry3d ProblemBuilder::relocation_pose() const { return iso_from_pose(relocation_pose_); }
+
+int ProblemBuilder::relocation_candidates(int* match_of) const {
+  int n = 0;
+  for (std::size_t m = 0; m < relocation_->matches.size(); ++m) {
+    const int idx = landmarks_->find(relocation_->matches[m].landmark_id);
+    if (idx < 0 || block_of_landmark_[idx] < 0) continue;
+    const Landmark& l = landmarks_->at_pool(idx);
+    if (l.outlier || !l.has_depth) continue;
+    match_of[n++] = static_cast<int>(m);
+  }
+  return n;
+}
+
+void ProblemBuilder::add_relocation_terms() {
+  n_loop_points_ = 0;
+  n_relocation_ = relocation_candidates(relocation_match_.get());
+  if (n_relocation_ < options_.min_relocation_residuals) {
+    n_relocation_ = 0;
+    return;
+  }
+  problem_->add_pose_block(relocation_pose_, &relocation_id_);
+  table_.note(relocation_id_, BlockKind::kRelocation, relocation_->loop);
+  const solver::RobustLoss huber = solver::RobustLoss::huber(options_.huber_rad);
+  int added = 0;
+  for (int k = 0; k < n_relocation_; ++k) {
+    const RelocationMatch& m = relocation_->matches[static_cast<std::size_t>(relocation_match_[k])];
+    const int idx = landmarks_->find(m.landmark_id);
+    const Landmark& l = landmarks_->at_pool(idx);
+    // The loop keyframe's left camera sees the landmark: host -> (loop pose, cam0).
+    BearingResidual& r = relocation_res_[added];
+    const bool same_camera = l.host_cam == 0;
+    r.set(BearingResidual::Kind::kTwoFrames, same_camera, l.b_host, m.bearing_c0.cast<double>(), options_.weight_3d);
+    const solver::BlockId lm = block_of_landmark_[idx];
+    const solver::BlockId host = pose_id_[l.host_slot];
+    const solver::SolverStatus st =
+        same_camera ? problem_->add_residual(&r, huber, {host, relocation_id_, ext_id_[0], lm})
+                    : problem_->add_residual(&r, huber, {host, relocation_id_, ext_id_[l.host_cam], ext_id_[0], lm});
+    if (st != solver::SolverStatus::kOk) {
+      ++stats_->drops_residuals;
+      break;
+    }
+    relocation_match_[added++] = relocation_match_[k];
+    add_loop_point_views(l, m);
+  }
+  n_relocation_ = added;
+}
+
+void ProblemBuilder::add_loop_point_views(const Landmark& l, const RelocationMatch& m) {
+  const solver::RobustLoss loss = solver::RobustLoss::huber(options_.huber_rad);
+  const Eigen::Vector3d p_c0 = iso_from_pose(window_->extrinsics().block(0)).inverse() * m.p_loop_b.cast<double>();
+  if (!(p_c0.z() > options_.min_depth_m)) return;
+  // The first, a middle and the last left observation: the window's span, not ten near-copies.
+  int left[capacity::kMaxObservationsPerLandmark];
+  int n = 0;
+  for (int k = 0; k < l.n_obs; ++k)
+    if (l.obs[k].has_left) left[n++] = k;
+  const int picks[kLoopPointViews] = {0, n / 2, n - 1};
+  for (int i = 0; i < kLoopPointViews && n > 0; ++i) {
+    if (i > 0 && picks[i] == picks[i - 1]) continue;
+    const LandmarkObservation& o = l.obs[left[picks[i]]];
+    LoopPointResidual& r = loop_points_[n_loop_points_];
+    r.set(p_c0, o.bearing_left.cast<double>(), options_.weight_3d);
+    if (problem_->add_residual(&r, loss, {relocation_id_, pose_id_[o.slot], ext_id_[0]}) != solver::SolverStatus::kOk) {
+      ++stats_->drops_residuals;
+      return;
+    }
+    ++n_loop_points_;
+  }
+}
+
+int ProblemBuilder::relocation_inliers() {
+  if (relocation_ == nullptr) return 0;
+  pose_cache_->invalidate();
+  int inliers = 0;
+  for (int k = 0; k < n_relocation_; ++k) {
+    const RelocationMatch& m = relocation_->matches[static_cast<std::size_t>(relocation_match_[k])];
+    const int idx = landmarks_->find(m.landmark_id);
+    if (idx < 0) continue;  // removed as an outlier of the window since
+    Landmark& l = landmarks_->at_pool(idx);
+    const double* params[5];
+    int nb = 0;
+    params[nb++] = window_->slot(l.host_slot).pose;
+    params[nb++] = relocation_pose_;
+    if (l.host_cam != 0) params[nb++] = window_->extrinsics().block(l.host_cam);
+    params[nb++] = window_->extrinsics().block(0);
+    params[nb++] = &l.inv_depth;
+    double err = 0.0;
+    if (relocation_res_[k].error_rad(params, &err) && err <= options_.outlier_rad) ++inliers;
+  }
+  return inliers;
 }
 
 int ProblemBuilder::oldest_frame_blocks(int* ids) const {

@@ -12,6 +12,8 @@
 #include "core/estimator/block_table.hpp"
 #include "core/estimator/frame_id.hpp"
 #include "core/estimator/landmark_selection.hpp"
+#include "core/estimator/loop_point_residual.hpp"
+#include "core/estimator/relocation.hpp"
 #include "core/estimator/state_residuals.hpp"
 #include "core/estimator/visual_edges.hpp"
 #include "core/estimator/window.hpp"
@@ -37,6 +39,9 @@ struct ProblemBuilderOptions {
   double function_tolerance = 1e-3;
   SelectionPolicy selection;
   double still_sigma_m = 0.002, still_sigma_rad = 0.001, still_sigma_v = 0.01;
+  // Fewer of a relocation's landmarks in the solve than this and the loop keyframe's pose is
+  // left out (6 unknowns: a handful of rays would only fit their own noise).
+  int min_relocation_residuals = 12;
 };
 
 // What one solve contains.
@@ -65,6 +70,19 @@ class ProblemBuilder {
   void set_init_prior(const SpeedBiasPrior::Vector9& target, const SpeedBiasPrior::Vector9& sigma, FrameId id);
   void clear_init_prior() { init_prior_frame_ = kNoFrame; }
 
+  // Tightly coupled relocation (relocation.hpp): until clear_relocation(), every VIO solve adds
+  // the loop keyframe's pose, started at T_odom_loop, and the bearing residuals of the request's
+  // landmarks that are in the solve. request: not owned, outlives the relocation.
+  void set_relocation(const RelocationRequest* request, const Eigen::Isometry3d& T_odom_loop);
+  // Ends it and builds the last solve's problem again without it (not solved): the marginalizer
+  // takes that problem, and the loop keyframe must not enter the prior.
+  void clear_relocation(const SolveSpec& spec);
+  Eigen::Isometry3d relocation_pose() const;  // T_odom_loop after the last solve
+  int relocation_residuals() const { return n_relocation_; }  // landmark -> loop keyframe
+  int loop_point_residuals() const { return n_loop_points_; }  // loop keyframe's point -> window
+  // Of those, within outlier_rad at the current states.
+  int relocation_inliers();
+
   // The last problem, for the marginalizer: the oldest frame's blocks and the landmarks it hosts.
   solver::Problem& problem() { return *problem_; }
   BlockTable& blocks() { return table_; }
@@ -81,6 +99,9 @@ class ProblemBuilder {
   bool add_landmark_edges(int pool_idx, int lm_block);
   void add_imu_terms();
   void add_marginal_prior();
+  void add_relocation_terms();
+  // The request's matches whose landmarks qualify (see set_relocation), as match indices.
+  int relocation_candidates(int* match_of) const;
   int block_id(const EdgeBlock& b, int lm_block) const;
 
   ProblemBuilderOptions options_;
@@ -104,6 +125,16 @@ class ProblemBuilder {
   FrameId init_prior_frame_ = kNoFrame;
   SpeedBiasPrior zero_velocity_;
   StillResidual still_;
+  const RelocationRequest* relocation_ = nullptr;
+  double relocation_pose_[state::kPoseSize] = {};
+  std::unique_ptr<BearingResidual[]> relocation_res_;
+  std::unique_ptr<int[]> relocation_match_;  // per relocation residual: its match index
+  int n_relocation_ = 0;
+  static constexpr int kLoopPointViews = 3;   // window frames that see a loop keyframe's point
+  std::unique_ptr<LoopPointResidual[]> loop_points_;
+  int n_loop_points_ = 0;
+  void add_loop_point_views(const Landmark& l, const RelocationMatch& m);
+  int relocation_id_ = -1;
 };
 
 }  // namespace ums

@@ -77,6 +77,10 @@ class VioPipeline final : public MeasurementSink {
   void set_keyframe_sink(KeyframeSink* sink) {
     if (estimator_ != nullptr) estimator_->set_keyframe_sink(sink);
   }
+  // Tightly coupled relocation's requests and results (no effect with frontend_only).
+  void set_relocation_link(RelocationLink* link) {
+    if (estimator_ != nullptr) estimator_->set_relocation_link(link);
+  }
 
   const Estimator* estimator() const { return estimator_.get(); }  // nullptr with frontend_only
   const VioPipelineCounters& counters() const { return counters_; }

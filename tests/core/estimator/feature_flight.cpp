@@ -222,6 +222,8 @@ FeatureFlightResult fly_features(const FeatureFlightOptions& o) {
   std::mt19937_64 rng(o.seed);
   FeatureTracker tracker(o, rig, room_points(tr, o.wall_margin_m, o.points, rng));
   auto est = std::make_unique<Estimator>(estimator_options(o, rig), rig);
+  est->set_keyframe_sink(o.keyframe_sink);
+  est->set_relocation_link(o.relocation);
   auto ff = std::make_unique<FrameFeatures>();
   const Eigen::Isometry3d T_b_c0 = rig.imu.T_b_i.inverse() * rig.cam[0].T_b_c;
   const Eigen::Isometry3d T_b_c1 = rig.imu.T_b_i.inverse() * rig.cam[1].T_b_c;

@@ -29,6 +29,8 @@ struct FeatureFlightOptions {
   int points = 6000;                  // on the room's six faces
   std::uint64_t seed = 1;             // points, noise and the simulator's IMU
   EstimatorOptions estimator;
+  KeyframeSink* keyframe_sink = nullptr;   // not owned: the estimator's keyframe outlet
+  RelocationLink* relocation = nullptr;    // not owned: tightly coupled relocation
 };
 
 struct FeatureFlightResult {
