@@ -92,7 +92,8 @@ def check_loops(run_dir, t_gt, T_gt):
         bad = e_m > 0.1 or e_deg > 2.0
         false_loops += bad
         sigma = (float(v[15]), float(v[16])) if len(v) > 16 else None
-        rows.append((tq, tc, int(v[4]), e_m, e_deg, bad, int(v[7]), sigma))
+        refined = len(v) > 17 and v[17] == '1'
+        rows.append((tq, tc, int(v[4]), e_m, e_deg, bad, int(v[7]), sigma, refined))
     return rows, false_loops
 
 
@@ -131,13 +132,16 @@ def main():
     t_gt, T_gt = read_groundtruth(a.groundtruth)
     rows, false_loops = check_loops(a.run_dir, t_gt, T_gt)
     t0 = t_gt[0]
-    for tq, tc, inl, e_m, e_deg, bad, reloc, sigma in rows:
+    for tq, tc, inl, e_m, e_deg, bad, reloc, sigma, refined in rows:
         stated = f"  sigma {sigma[0]:.4f} m {sigma[1]:.3f} deg" if sigma else ""
         print(f"loop {(tq - t0) * 1e-9:7.2f} s -> {(tc - t0) * 1e-9:7.2f} s  inliers {inl:3d}  "
-              f"error {e_m:.4f} m {e_deg:.3f} deg{stated}{'  FALSE' if bad else ''}{'  (relocalization)' if reloc else ''}")
+              f"error {e_m:.4f} m {e_deg:.3f} deg{stated}{'  refined' if refined else ''}"
+              f"{'  FALSE' if bad else ''}{'  (relocalization)' if reloc else ''}")
     errs = [r[3] for r in rows]
     print(f"loops: {len(rows)} accepted, {false_loops} false (> 0.1 m or 2 deg); "
-          f"max error {max(errs) if errs else 0:.4f} m, {max([r[4] for r in rows]) if rows else 0:.3f} deg")
+          f"max error {max(errs) if errs else 0:.4f} m, {max([r[4] for r in rows]) if rows else 0:.3f} deg; "
+          f"mean {sum(errs) / len(errs) if errs else 0:.4f} m, {sum(r[4] for r in rows) / len(rows) if rows else 0:.3f} deg; "
+          f"{sum(1 for r in rows if r[8])} refined by the window")
     spans = revisits(t_gt, T_gt, a.recent_s)
     found = 0
     for s, e in spans:

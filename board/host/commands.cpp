@@ -22,6 +22,7 @@ usage: umsvins <command> [options]
       DIR/trajectory_map.tum (poses in the map frame) and DIR/loops.csv (docs/loop-closure.md);
       --save-map F writes the map at the end, --load-map F starts in a saved map's frame; with
       --mavlink the map frame goes out, each correction a reset or, with --map-spread-s S, a ramp.
+      --no-tight-relocation: loops keep the verifier's measurement (no refinement in the window).
       --deterministic: solver rounds bounded by iterations, not wall time (same result anywhere).
       MAVLink (replay and live): --mavlink udp:HOST:PORT|serial:PATH[:BAUD] sends ODOMETRY to a
       flight controller (docs/mavlink.md); --mavlink-rate HZ (default 30), --mavlink-imu-rate,

@@ -119,7 +119,7 @@ int run_record(const std::vector<std::string>& argv, std::ostream& out, std::ost
 }
 
 int run_live(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
-  const Args args("live", argv, with_mavlink_flags({"quiet", "loop"}),
+  const Args args("live", argv, with_mavlink_flags({"quiet", "loop", "no-tight-relocation"}),
                   with_mavlink_valued({"config", "source", "out", "seconds", "duration", "vocabulary", "load-map",
                                        "save-map", "map-spread-s"}));
   args.require_positionals(0, "");

@@ -23,13 +23,13 @@ loop::Vocabulary read_vocabulary(const std::filesystem::path& path) {
   return loop::Vocabulary::parse(bytes, path.string());
 }
 
-LoopSession::LoopSession(const std::filesystem::path& vocabulary, const AppConfig& config,
+LoopSession::LoopSession(const std::filesystem::path& vocabulary, const loop::LoopOptions& options, const AppConfig& config,
                          const std::filesystem::path& out_dir)
     : out_dir_(out_dir),
       map_path_(out_dir / "trajectory_map.tum"),
       vocabulary_path_(vocabulary.empty() ? std::string(kBuiltinVocabularyName) : vocabulary.string()),
       vocabulary_(read_vocabulary(vocabulary)),
-      closer_(std::make_unique<loop::LoopCloser>(loop::LoopOptions{}, config.rig, vocabulary_)) {
+      closer_(std::make_unique<loop::LoopCloser>(options, config.rig, vocabulary_)) {
   map_file_ = std::fopen(map_path_.c_str(), "w");
   if (map_file_ == nullptr) throw std::runtime_error(map_path_.string() + ": cannot open for writing");
   std::fputs("# t_s x y z qx qy qz qw (body = IMU in the map frame: T_map_odom * T_odom_b; umsvins)\n", map_file_);
@@ -66,9 +66,11 @@ void LoopSession::attach(ReplayPipeline& pipeline) {
   if (worker_ != nullptr) {
     pipeline.set_keyframe_image_sink(worker_.get());
     pipeline.set_keyframe_sink(worker_.get());
+    pipeline.set_relocation_link(worker_.get());
   } else {
     pipeline.set_keyframe_image_sink(closer_.get());
     pipeline.set_keyframe_sink(closer_.get());
+    pipeline.set_relocation_link(closer_.get());
   }
   pipeline.set_map_pose_consumer(this);
 }
@@ -76,6 +78,7 @@ void LoopSession::attach(ReplayPipeline& pipeline) {
 void LoopSession::detach(ReplayPipeline& pipeline) {
   pipeline.set_keyframe_image_sink(nullptr);
   pipeline.set_keyframe_sink(nullptr);
+  pipeline.set_relocation_link(nullptr);
   pipeline.set_map_pose_consumer(nullptr);
 }
 
@@ -104,18 +107,18 @@ std::string LoopSession::finish() {
   const std::filesystem::path loops_path = out_dir_ / "loops.csv";
   std::ofstream csv(loops_path);
   csv << "# t_query_s,t_loop_s,query_frame,loop_frame,inliers,correction_m,correction_deg,relocalization,"
-         "x,y,z,qx,qy,qz,qw,sigma_p_m,sigma_rot_deg (T_loop_query: the query's body in the loop keyframe's body "
-         "frame, and its 1-sigma)\n";
+         "x,y,z,qx,qy,qz,qw,sigma_p_m,sigma_rot_deg,refined (T_loop_query: the query's body in the loop keyframe's "
+         "body frame, and its 1-sigma; refined 1: by the window, tightly coupled relocation)\n";
   char line[400];
   for (std::size_t i = 0; i < closer_->num_events(); ++i) {
     const loop::LoopEvent& e = closer_->event(i);
     const Eigen::Vector3d t = e.T_loop_query.translation();
     const Eigen::Quaterniond q(e.T_loop_query.linear());
-    std::snprintf(line, sizeof(line), "%lld.%09lld,%lld.%09lld,%u,%u,%d,%.5f,%.4f,%d,%.6f,%.6f,%.6f,%.8f,%.8f,%.8f,%.8f,%.5f,%.4f\n",
+    std::snprintf(line, sizeof(line), "%lld.%09lld,%lld.%09lld,%u,%u,%d,%.5f,%.4f,%d,%.6f,%.6f,%.6f,%.8f,%.8f,%.8f,%.8f,%.5f,%.4f,%d\n",
                   static_cast<long long>(e.t_query_ns / 1000000000), static_cast<long long>(e.t_query_ns % 1000000000),
                   static_cast<long long>(e.t_loop_ns / 1000000000), static_cast<long long>(e.t_loop_ns % 1000000000),
                   e.query, e.loop, e.inliers, e.correction_m, e.correction_deg, e.relocalization ? 1 : 0,
-                  t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w(), e.sigma_p_m, e.sigma_rot_deg);
+                  t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w(), e.sigma_p_m, e.sigma_rot_deg, e.refined ? 1 : 0);
     csv << line;
   }
   csv.flush();
@@ -151,7 +154,15 @@ void LoopSession::write_stats(JsonWriter& w) const {
       .value("events_overwritten", s.events_overwritten)
       .value("candidates", s.candidates)
       .value("accepted", s.accepted)
-      .value("relocalizations", s.relocalizations);
+      .value("relocalizations", s.relocalizations)
+      .value("tight_relocation", closer_->options().tight_relocation)
+      .value("relocation_requests", s.relocation_requests)
+      .value("relocations_refined", s.relocations_refined)
+      .value("relocation_too_few", s.relocation_too_few)
+      .value("relocation_too_far", s.relocation_too_far)
+      .value("relocation_refused", s.relocation_refused)
+      .value("relocation_stale", s.relocation_stale)
+      .value("relocation_mean_change_m", s.relocations_refined > 0 ? s.relocation_change_m_sum / static_cast<double>(s.relocations_refined) : 0.0, 5);
   w.begin_object("rejected_by");
   for (int g = 0; g < static_cast<int>(loop::LoopGate::kCount); ++g) {
     w.value(loop::to_string(static_cast<loop::LoopGate>(g)), s.rejected_by[g]);
@@ -176,6 +187,7 @@ void LoopSession::write_stats(JsonWriter& w) const {
       .value("thread_dropped", worker_stats_.dropped)
       .value("thread_waits", worker_stats_.waits)
       .value("thread_max_depth", worker_stats_.max_depth)
+      .value("thread_relocation_results_dropped", worker_stats_.relocation_results_dropped)
       .end_object();
 }
 
@@ -195,13 +207,16 @@ std::unique_ptr<LoopSession> loop_from_args(const Args& args, const AppConfig& c
                                             const std::filesystem::path& out_dir, LoopThreading threading) {
   const std::optional<std::string> vocabulary = args.get("vocabulary");
   if (!vocabulary && !args.has("loop")) {
-    if (args.get("load-map") || args.get("save-map") || args.get("map-spread-s")) {
-      throw UsageError("umsvins: --load-map, --save-map and --map-spread-s need --loop or --vocabulary (loop closure)");
+    if (args.get("load-map") || args.get("save-map") || args.get("map-spread-s") || args.has("no-tight-relocation")) {
+      throw UsageError("umsvins: --load-map, --save-map, --map-spread-s and --no-tight-relocation need --loop or "
+                       "--vocabulary (loop closure)");
     }
     return nullptr;
   }
   if (vocabulary && vocabulary->empty()) throw UsageError("umsvins: --vocabulary needs a file");
-  auto session = std::make_unique<LoopSession>(vocabulary.value_or(""), config, out_dir);
+  loop::LoopOptions options;
+  options.tight_relocation = !args.has("no-tight-relocation");
+  auto session = std::make_unique<LoopSession>(vocabulary.value_or(""), options, config, out_dir);
   if (const auto load = args.get("load-map")) session->load_map(*load);
   if (const auto save = args.get("save-map")) session->save_map_to(*save);
   const double spread_s = args.get_double("map-spread-s", 0.0);

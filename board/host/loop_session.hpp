@@ -40,7 +40,7 @@ loop::Vocabulary read_vocabulary(const std::filesystem::path& path);
 class LoopSession final : public PoseSink {
  public:
   // vocabulary: a file, or "" for the built-in one.
-  LoopSession(const std::filesystem::path& vocabulary, const AppConfig& config,
+  LoopSession(const std::filesystem::path& vocabulary, const loop::LoopOptions& options, const AppConfig& config,
               const std::filesystem::path& out_dir);
   // Start-up, before the first keyframe: std::runtime_error naming the file and the reason.
   void load_map(const std::filesystem::path& path);

@@ -9,6 +9,10 @@
 //
 // When the queue is full, a live run drops the keyframe (counted: a frame is never held up for
 // loop closure); a replay waits for a slot (nothing lost). Nothing allocates after construction.
+//
+// Tightly coupled relocation crosses the threads too: an accepted loop's request is published
+// for the frame thread (the newest replaces one not yet taken), and the window's results are
+// queued back (kResults; the oldest is dropped, counted, when the loop thread falls behind).
 
 #include <condition_variable>
 #include <cstdint>
@@ -31,9 +35,13 @@ struct LoopWorkerStats {
   std::uint64_t dropped = 0;       // the queue was full (kDrop)
   std::uint64_t waits = 0;         // the frame thread waited for a slot (kWait)
   std::uint64_t max_depth = 0;     // most keyframes waiting at once
+  std::uint64_t relocation_results_dropped = 0;
 };
 
-class LoopWorker final : public KeyframeSink, public KeyframeImageSink, public loop::MapFrameSource {
+class LoopWorker final : public KeyframeSink,
+                         public KeyframeImageSink,
+                         public loop::MapFrameSource,
+                         public RelocationLink {
  public:
   // steps, images: not owned (the LoopCloser is both). add_keyframe and placement run on the loop
   // thread between construction and stop(); images and prepare on the caller's.
@@ -47,13 +55,18 @@ class LoopWorker final : public KeyframeSink, public KeyframeImageSink, public l
   void on_keyframe(const MarginalizedKeyframe& keyframe) override;
   bool map_from_odometry(std::uint32_t odometry_epoch, Eigen::Isometry3d* T_map_odom) const override;
   std::uint32_t corrections() const override;
+  // Frame thread: the newest published request; a result for the loop thread.
+  bool take_relocation(RelocationRequest* out) override;
+  void on_relocated(const RelocationResult& result) override;
 
   // Finishes the queued keyframes and ends the thread (then the closer is the caller's again).
   void stop();
   LoopWorkerStats stats() const;
 
  private:
+  static constexpr std::size_t kResults = 4;
   void run();
+  void relocate(std::unique_lock<std::mutex>& lock);  // one queued result, lock held on entry
 
   loop::LoopSteps& steps_;
   KeyframeImageSink& images_;
@@ -64,6 +77,11 @@ class LoopWorker final : public KeyframeSink, public KeyframeImageSink, public l
   std::size_t head_ = 0, count_ = 0;
   bool stopping_ = false;
   loop::MapPlacement published_;
+  std::unique_ptr<RelocationRequest> request_made_;       // loop thread's
+  std::unique_ptr<RelocationRequest> request_published_;  // under mutex_
+  bool has_request_ = false;
+  RelocationResult results_[kResults];
+  std::size_t results_head_ = 0, n_results_ = 0;
   LoopWorkerStats stats_;
   std::thread thread_;  // last: starts once everything above exists
 };

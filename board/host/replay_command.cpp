@@ -187,7 +187,7 @@ void write_report(const std::string& dataset, const hal::EurocReader& reader, co
 }  // namespace
 
 int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
-  const Args args("replay", argv, with_mavlink_flags({"realtime", "frontend-only", "quiet", "deterministic", "loop"}),
+  const Args args("replay", argv, with_mavlink_flags({"realtime", "frontend-only", "quiet", "deterministic", "loop", "no-tight-relocation"}),
                   with_mavlink_valued({"config", "out", "start", "duration", "vocabulary", "load-map", "save-map", "map-spread-s"}));
   args.require_positionals(1, "<dataset> (the folder holding mav0/)");
   const std::string dataset = args.positionals()[0];

@@ -83,6 +83,10 @@ void LoopOptions::validate() const {
   need(loop_sigma_p_m > 0.0 && loop_sigma_yaw_deg > 0.0, "loop_sigma_p_m", loop_sigma_p_m);
   need(loop_sigma_fit_scale > 0.0, "loop_sigma_fit_scale", loop_sigma_fit_scale);
   need(max_loop_residual_sigma > 0.0, "max_loop_residual_sigma", max_loop_residual_sigma);
+  need(relocation_blend >= 0.0 && relocation_blend <= 1.0, "relocation_blend", relocation_blend);
+  need(min_relocation_inliers >= 6, "min_relocation_inliers", min_relocation_inliers);
+  need(relocation_max_change_m > 0.0, "relocation_max_change_m", relocation_max_change_m);
+  need(relocation_max_change_deg > 0.0, "relocation_max_change_deg", relocation_max_change_deg);
   need(loop_sigma_min_p_m > 0.0 && loop_sigma_min_yaw_deg > 0.0, "loop_sigma_min_p_m", loop_sigma_min_p_m);
   need(verifier.min_matches >= 4, "verifier.min_matches", verifier.min_matches);
   need(verifier.max_hamming > 0 && verifier.max_hamming < 256, "verifier.max_hamming", verifier.max_hamming);
@@ -108,7 +112,10 @@ LoopCloser::LoopCloser(const LoopOptions& options, const RigCalibration& rig, co
       slot_of_(new std::uint32_t[capacity::kMaxKeyframes]),
       loops_(new LoopEdge[capacity::kMaxLoopEdges]),
       saved_(new SavedPose[capacity::kMaxKeyframes]),
-      events_(new LoopEvent[capacity::kMaxLoopEvents]) {
+      events_(new LoopEvent[capacity::kMaxLoopEvents]),
+      request_(new RelocationRequest()),
+      pair_q_(new std::uint16_t[capacity::kMaxLoopFeaturesPerKeyframe]),
+      pair_c_(new std::uint16_t[capacity::kMaxLoopFeaturesPerKeyframe]) {
   if (vocabulary.empty()) throw std::invalid_argument("loop closure: the vocabulary is empty");
   calibration_hash_ = hash_calibration(rig);
 }
@@ -245,6 +252,7 @@ void LoopCloser::prepare(const MarginalizedKeyframe& k, LoopKeyframe* out) const
     f.descriptor = pend->descriptor[it - pend->feature_id];
     f.p_b = (T_b_odom * o.p_odom).cast<float>();
     f.bearing_c0 = o.bearing_left;
+    f.landmark_id = o.landmark_id;
     out->features.push_back(f);
   }
 }
@@ -344,7 +352,9 @@ bool LoopCloser::passes_gates(std::uint32_t q_slot, std::uint32_t c_slot, const 
 }
 
 bool LoopCloser::close_loop(std::uint32_t q_slot, std::uint32_t c_slot, const LoopGeometry& g) {
-  if (n_loops_ == capacity::kMaxLoopEdges) retire_oldest_loop();
+  // A full set of loop edges makes room with its oldest, put back if the new loop is refused.
+  const bool retired = n_loops_ == capacity::kMaxLoopEdges;
+  const LoopEdge oldest = retired ? retire_oldest_loop() : LoopEdge{};
   KeyframeRecord& q = db_->at(q_slot);
   KeyframeRecord& c = db_->at(c_slot);
   const bool relocalization = !q.placed;
@@ -360,9 +370,11 @@ bool LoopCloser::close_loop(std::uint32_t q_slot, std::uint32_t c_slot, const Lo
   if (!solve_graph() || loop_residual_sigma(edge) > options_.max_loop_residual_sigma) {
     --n_loops_;
     restore_map_state();
+    if (retired) unretire(oldest);
     reject(LoopGate::kPoseGraph);
     return false;
   }
+  if (retired) ++stats_.loop_edges_retired;
   ++q.loops;
   ++c.loops;
   ++stats_.accepted;
@@ -377,6 +389,7 @@ bool LoopCloser::close_loop(std::uint32_t q_slot, std::uint32_t c_slot, const Lo
                 g.T_c_q, q.T_map_b.translation(), c.T_map_b.translation(), g.sigma_p_m,
                 g.sigma_rot_rad * kDegPerRad};
   stats_.max_correction_m = std::max(stats_.max_correction_m, e.correction_m);
+  if (options_.tight_relocation) request_relocation(q, c, g);
   return true;
 }
 
@@ -404,15 +417,22 @@ void LoopCloser::restore_map_state() {
   corrections_ = saved_corrections_;
 }
 
-void LoopCloser::retire_oldest_loop() {
+LoopCloser::LoopEdge LoopCloser::retire_oldest_loop() {
   // The newer loops cover the places flown again; the oldest edge's ends may be decimated again.
-  const LoopEdge& old = loops_[0];
+  const LoopEdge old = loops_[0];
   for (std::uint32_t s : {old.c_slot, old.q_slot}) {
     if (db_->at(s).loops > 0) --db_->at(s).loops;
   }
   for (std::size_t l = 1; l < n_loops_; ++l) loops_[l - 1] = loops_[l];
   --n_loops_;
-  ++stats_.loop_edges_retired;
+  return old;
+}
+
+void LoopCloser::unretire(const LoopEdge& edge) {
+  for (std::size_t l = n_loops_; l > 0; --l) loops_[l] = loops_[l - 1];
+  loops_[0] = edge;
+  ++n_loops_;
+  for (std::uint32_t s : {edge.c_slot, edge.q_slot}) ++db_->at(s).loops;
 }
 
 void LoopCloser::place_session(const KeyframeRecord& q, const Eigen::Isometry3d& T_map_q, bool placed) {

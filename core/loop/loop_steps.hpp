@@ -9,6 +9,7 @@
 #include "core/common/capacity.hpp"
 #include "core/common/fixed_vector.hpp"
 #include "core/estimator/keyframe_sink.hpp"
+#include "core/estimator/relocation.hpp"
 #include "core/loop/keyframe_database.hpp"
 
 namespace ums::loop {
@@ -40,9 +41,10 @@ struct MapPlacement {
   }
 };
 
-class LoopSteps {
+// The tightly coupled relocation link (take_relocation, on_relocated) runs on the thread of
+// add_keyframe as well: a loop's request is made there, its result refines the loop there.
+class LoopSteps : public RelocationLink {
  public:
-  virtual ~LoopSteps() = default;
   // Cheap: the keyframe's described 3D features, on the thread that receives its image.
   virtual void prepare(const MarginalizedKeyframe& keyframe, LoopKeyframe* out) const = 0;
   // Costly: keep, query, verify, close (any thread, one keyframe at a time, in order).

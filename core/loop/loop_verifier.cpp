@@ -144,6 +144,16 @@ bool LoopVerifier::refine(const KeyframeRecord& q, const KeyframeRecord& c, Loop
   return true;
 }
 
+int LoopVerifier::inlier_pairs(std::uint16_t* query_index, std::uint16_t* candidate_index) const {
+  int n = 0;
+  for (int k = 0; k < n_; ++k) {
+    if (!mask_[k]) continue;
+    query_index[n] = qi_[k];
+    candidate_index[n++] = ci_[k];
+  }
+  return n;
+}
+
 void LoopVerifier::uncertainty(const KeyframeRecord& q, const KeyframeRecord& c, LoopGeometry* out) const {
   Eigen::Matrix<double, 6, 6> H;
   double squared_sum = 0.0;

@@ -44,6 +44,8 @@ class LoopVerifier {
   // Fills *out; false when too few matches or no hypothesis with 4+ inliers (out->matches and
   // out->inliers still tell how far it got).
   bool verify(const KeyframeRecord& query, const KeyframeRecord& candidate, LoopGeometry* out);
+  // The last successful verify()'s inliers as feature indices of the query and the candidate.
+  int inlier_pairs(std::uint16_t* query_index, std::uint16_t* candidate_index) const;
 
  private:
   int match(const KeyframeRecord& query, const KeyframeRecord& candidate);

@@ -18,7 +18,8 @@ namespace ums::cli {
 namespace {
 
 // Records the keyframes it is given; add_keyframe can be held until release(). Each keyframe
-// moves the map frame by 1 m in x and counts a correction.
+// moves the map frame by 1 m in x and counts a correction; an even keyframe makes a relocation
+// request (query = its id), and a relocation result moves the map frame by 10 m in y.
 class FakeSteps final : public loop::LoopSteps, public KeyframeImageSink {
  public:
   explicit FakeSteps(bool held) : held_(held) { added_.reserve(1000); }
@@ -36,6 +37,23 @@ class FakeSteps final : public loop::LoopSteps, public KeyframeImageSink {
     placement_.epoch = k.odometry_epoch;
     placement_.T_map_odom.translation().x() += 1.0;
     ++placement_.corrections;
+    if (k.id % 2 == 0) request_ = k.id;
+  }
+  bool take_relocation(RelocationRequest* out) override {
+    if (request_ == kNoFrame) return false;
+    out->query = request_;
+    request_ = kNoFrame;
+    return true;
+  }
+  void on_relocated(const RelocationResult& r) override {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    relocated_.push_back(r.query);
+    placement_.T_map_odom.translation().y() += 10.0;
+    ++placement_.corrections;
+  }
+  std::vector<FrameId> relocated() const {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    return relocated_;
   }
   loop::MapPlacement placement() const override {
     const std::lock_guard<std::mutex> lock(mutex_);
@@ -57,6 +75,8 @@ class FakeSteps final : public loop::LoopSteps, public KeyframeImageSink {
   std::atomic<int> images_{0};
   mutable std::mutex mutex_;
   std::vector<FrameId> added_;
+  std::vector<FrameId> relocated_;
+  FrameId request_ = kNoFrame;  // the loop thread's
   loop::MapPlacement placement_;
 };
 
@@ -134,6 +154,34 @@ TEST_CASE("LoopWorker: the frame thread reads the map frame published after each
   CHECK(T_map_odom.translation().x() == Approx(5.0));  // m: one per keyframe
   CHECK_FALSE(worker.map_from_odometry(4, &T_map_odom));  // another odometry frame
   worker.stop();
+}
+
+TEST_CASE("LoopWorker: relocation requests reach the frame thread, their results the loop thread", "[loop]") {
+  FakeSteps steps(false);
+  LoopWorker worker(steps, steps, QueueFull::kWait);
+  RelocationRequest request;
+  CHECK_FALSE(worker.take_relocation(&request));  // none made yet
+  worker.on_keyframe(keyframe(1));
+  worker.on_keyframe(keyframe(2));
+  wait_until([&] { return worker.corrections() == 2; });
+  REQUIRE(worker.take_relocation(&request));
+  CHECK(request.query == 2);
+  CHECK_FALSE(worker.take_relocation(&request));  // taken once
+  // Keyframes 4 and 6 both request before the frame thread looks: the newer one wins.
+  for (FrameId id = 3; id <= 6; ++id) worker.on_keyframe(keyframe(id));
+  wait_until([&] { return worker.corrections() == 6; });
+  REQUIRE(worker.take_relocation(&request));
+  CHECK(request.query == 6);
+  RelocationResult result;
+  result.query = 6;
+  worker.on_relocated(result);
+  wait_until([&] { return worker.corrections() == 7; });
+  Eigen::Isometry3d T_map_odom;
+  REQUIRE(worker.map_from_odometry(3, &T_map_odom));
+  CHECK(T_map_odom.translation().y() == Approx(10.0));  // m: the result was applied and published
+  // Results the busy loop thread has not taken: the newest kResults kept, the oldest dropped.
+  worker.stop();
+  CHECK(steps.relocated() == std::vector<FrameId>{6});
 }
 
 TEST_CASE("LoopWorker: images are described on the caller's thread; handing keyframes over allocates nothing", "[loop]") {

@@ -656,3 +656,71 @@ TEST_CASE("LoopCloser: a full database makes room by decimation, allocating noth
   if (alloc_counter_available()) CHECK(allocations == 0);
 }
 
+
+TEST_CASE("LoopCloser: an accepted loop asks the window to measure it again; the loop edge takes the blend", "[loop][relocation]") {
+  const auto flight = circle_flight(true, 1);
+  LoopCloser closer(LoopOptions{}, make_rig(), vocabulary());
+  for (const auto& k : flight->keyframes) feed(&closer, *k);
+  REQUIRE(closer.stats().accepted == 1);
+  const LoopEvent ev = closer.event(0);
+  const KeyframeInput& q = *flight->keyframes.back();
+  REQUIRE(ev.query == q.id);
+
+  RelocationRequest request;
+  REQUIRE(closer.take_relocation(&request));
+  CHECK_FALSE(closer.take_relocation(&request));  // taken once
+  CHECK(request.query == ev.query);
+  CHECK(request.loop == ev.loop);
+  CHECK(request.odometry_epoch == 0);
+  CHECK((request.T_odom_q.matrix() - q.keyframe->T_odom_b.matrix()).norm() < 1e-12);
+  CHECK((request.T_q_loop.matrix() - ev.T_loop_query.inverse().matrix()).norm() < 1e-9);
+  // The verifier's inliers, named by the query's landmarks.
+  CHECK(request.matches.size() == static_cast<std::size_t>(ev.inliers));
+  std::size_t known = 0;
+  for (const RelocationMatch& m : request.matches) {
+    for (const KeyframeObservation& o : q.keyframe->observations) known += o.landmark_id == m.landmark_id ? 1 : 0;
+  }
+  CHECK(known == request.matches.size());
+
+  // What the window could not use changes nothing.
+  const int c = static_cast<int>(ev.loop) - 100;
+  const Eigen::Isometry3d T_c_q_true = flight->truth[c].inverse() * flight->truth[flight->keyframes.size() - 1];
+  const std::uint32_t corrections = closer.corrections();
+  RelocationResult result;
+  result.query = ev.query;
+  result.loop = ev.loop;
+  result.residuals = result.inliers = 0;
+  closer.on_relocated(result);
+  CHECK(closer.stats().relocation_too_few == 1);
+  result.residuals = result.inliers = 80;
+  result.T_loop_query = T_c_q_true * level_pose(0.2, 0.0, 0.0, 0.0);  // 0.2 m from the truth: too far
+  closer.on_relocated(result);
+  CHECK(closer.stats().relocation_too_far == 1);
+  result.loop = ev.loop + 1;  // a loop the closer does not have
+  result.T_loop_query = T_c_q_true;
+  closer.on_relocated(result);
+  CHECK(closer.stats().relocation_stale == 1);
+  CHECK(closer.corrections() == corrections);
+  CHECK_FALSE(closer.event(0).refined);
+
+  // The window's measurement (here the truth) and the verified one, of equal weight, become the
+  // loop's; the map moves.
+  result.loop = ev.loop;
+  closer.on_relocated(result);
+  CHECK(closer.stats().relocations_refined == 1);
+  CHECK(closer.corrections() == corrections + 1);
+  CHECK(closer.event(0).refined);
+  const Eigen::Isometry3d& blended = closer.event(0).T_loop_query;
+  CHECK((blended.translation() - 0.5 * (ev.T_loop_query.translation() + T_c_q_true.translation())).norm() < 1e-12);
+  const double to_verified = angle_deg(blended.linear().transpose() * ev.T_loop_query.linear());
+  const double to_window = angle_deg(blended.linear().transpose() * T_c_q_true.linear());
+  CHECK(to_verified == Approx(to_window).margin(1e-9));
+
+  LoopOptions loose;
+  loose.tight_relocation = false;
+  LoopCloser without(loose, make_rig(), vocabulary());
+  for (const auto& k : flight->keyframes) feed(&without, *k);
+  CHECK(without.stats().accepted == 1);
+  CHECK_FALSE(without.take_relocation(&request));
+  CHECK(without.stats().relocation_requests == 0);
+}
