@@ -184,71 +184,48 @@ void write_report(const std::string& dataset, const hal::EurocReader& reader, co
   if (!eval::write_report_html(data, path.string(), &error)) throw std::runtime_error(error);
 }
 
-}  // namespace
 
-int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
-  const Args args("replay", argv, with_mavlink_flags({"realtime", "frontend-only", "quiet", "deterministic", "loop", "no-tight-relocation"}),
-                  with_mavlink_valued({"config", "out", "start", "duration", "vocabulary", "load-map", "save-map", "map-spread-s"}));
-  args.require_positionals(1, "<dataset> (the folder holding mav0/)");
-  const std::string dataset = args.positionals()[0];
-  const std::filesystem::path out_dir = args.get_or("out", "out/replay");
-
-  hal::EurocReaderOptions reader_options;
-  reader_options.start_s = args.get_double("start", 0.0);
-  reader_options.duration_s = args.get_double("duration", 0.0);
-  if (reader_options.start_s < 0.0) throw UsageError("umsvins replay: --start must be >= 0 s");
-  if (reader_options.duration_s < 0.0) throw UsageError("umsvins replay: --duration must be >= 0 s");
-
-  hal::EurocReader reader;
-  reader.open(dataset, reader_options);  // throws with file:line on bad input
-
-  std::vector<std::string> warnings;
-  const AppConfig config = args.get("config")
-                               ? load_config(*args.get("config"), reader.calibration(), &warnings)
-                               : config_from_calibration(reader.calibration());
-  for (const std::string& w : warnings) err << "warning: " << w << "\n";
-
-  std::filesystem::create_directories(out_dir);
-
-  ReplayPipelineOptions pipeline_options;
-  pipeline_options.frontend_only = args.has("frontend-only");
-  pipeline_options.deterministic = args.has("deterministic");
-  pipeline_options.report_frames = reader.total_pairs_estimate() + 16;
-  // Start-up footprint: everything the pipeline allocates while it is built, plus itself.
-  AllocScope startup_allocs;
-  ReplayPipeline pipeline(config, pipeline_options);
-  pipeline.set_static_bytes(static_cast<std::size_t>(startup_allocs.bytes()) + sizeof(ReplayPipeline));
-
-  const std::filesystem::path trajectory_path = out_dir / "trajectory.tum";
-  const std::filesystem::path states_path = out_dir / "states.csv";
+// The estimate's files, open while the pipeline writes them.
+struct EstimateFiles {
+  std::filesystem::path trajectory_path, states_path;
   std::FILE* trajectory = nullptr;
   std::FILE* states = nullptr;
-  if (pipeline.has_estimator()) {
-    trajectory = std::fopen(trajectory_path.c_str(), "w");
-    if (trajectory == nullptr) throw std::runtime_error(trajectory_path.string() + ": cannot open for writing");
-    std::fputs("# t_s x y z qx qy qz qw (body = IMU in world; umsvins replay)\n", trajectory);
-    pipeline.set_trajectory_output(trajectory);
-    states = std::fopen(states_path.c_str(), "w");
-    if (states == nullptr) throw std::runtime_error(states_path.string() + ": cannot open for writing");
-    std::fputs(TumPoseSink::state_header(), states);
-    pipeline.set_state_output(states);
-  }
-  std::unique_ptr<MavlinkSession> mavlink = mavlink_from_args(args, config, out_dir);
-  // Loop work on its own thread, except in --deterministic runs; --realtime drops what it cannot
-  // take like a live run, a replay as fast as it can waits for it.
-  const LoopThreading loop_threading{pipeline_options.deterministic,
-                                     args.has("realtime") ? QueueFull::kDrop : QueueFull::kWait};
-  std::unique_ptr<LoopSession> loop =
-      pipeline.has_estimator() ? loop_from_args(args, config, out_dir, loop_threading) : nullptr;
-  if (loop != nullptr) loop->attach(pipeline);
-  // With loop closure the flight controller gets the map frame (and a reset at each correction).
-  if (mavlink != nullptr) {
-    pipeline.set_pose_consumer(loop != nullptr ? loop->map_frame(&mavlink->output()) : &mavlink->output());
-  }
-  const bool quiet = args.has("quiet");
-  Progress progress("replay", static_cast<unsigned long>(reader.total_pairs_estimate()));
-  const bool realtime = args.has("realtime");
+};
 
+EstimateFiles open_estimate_files(const std::filesystem::path& out_dir, ReplayPipeline& pipeline) {
+  EstimateFiles f{out_dir / "trajectory.tum", out_dir / "states.csv"};
+  if (!pipeline.has_estimator()) return f;
+  f.trajectory = std::fopen(f.trajectory_path.c_str(), "w");
+  if (f.trajectory == nullptr) throw std::runtime_error(f.trajectory_path.string() + ": cannot open for writing");
+  std::fputs("# t_s x y z qx qy qz qw (body = IMU in world; umsvins replay)\n", f.trajectory);
+  pipeline.set_trajectory_output(f.trajectory);
+  f.states = std::fopen(f.states_path.c_str(), "w");
+  if (f.states == nullptr) throw std::runtime_error(f.states_path.string() + ": cannot open for writing");
+  std::fputs(TumPoseSink::state_header(), f.states);
+  pipeline.set_state_output(f.states);
+  return f;
+}
+
+void close_estimate_files(EstimateFiles* f, ReplayPipeline& pipeline) {
+  if (f->trajectory == nullptr) return;
+  pipeline.set_trajectory_output(nullptr);
+  pipeline.set_state_output(nullptr);
+  const bool trajectory_ok = std::fclose(f->trajectory) == 0;
+  const bool states_ok = std::fclose(f->states) == 0;
+  f->trajectory = f->states = nullptr;
+  if (!trajectory_ok) throw std::runtime_error(f->trajectory_path.string() + ": write failed");
+  if (!states_ok) throw std::runtime_error(f->states_path.string() + ": write failed");
+}
+
+struct StreamResult {
+  double wall_s = 0.0;
+  long peak_rss_kb = 0;  // before the report and stats are built
+};
+
+// Every IMU sample and stereo pair of the dataset through the pipeline, paced by the data's own
+// clock with --realtime (as a live sensor would deliver it).
+StreamResult stream(hal::EurocReader& reader, ReplayPipeline& pipeline, bool realtime, bool quiet, std::ostream& err) {
+  Progress progress("replay", static_cast<unsigned long>(reader.total_pairs_estimate()));
   const auto wall_start = std::chrono::steady_clock::now();
   std::int64_t first_t_ns = -1;
   ImuSample imu;
@@ -258,11 +235,7 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
     if (event == hal::EurocReader::Event::kEnd) break;
     const std::int64_t t_ns = event == hal::EurocReader::Event::kImu ? imu.t_ns : frame.t_ns;
     if (first_t_ns < 0) first_t_ns = t_ns;
-    if (realtime) {
-      // Pace the stream by the data's own clock, as a live sensor would deliver it.
-      const auto due = wall_start + std::chrono::nanoseconds(t_ns - first_t_ns);
-      std::this_thread::sleep_until(due);
-    }
+    if (realtime) std::this_thread::sleep_until(wall_start + std::chrono::nanoseconds(t_ns - first_t_ns));
     if (event == hal::EurocReader::Event::kImu) {
       pipeline.on_imu(imu);
     } else {
@@ -274,86 +247,78 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
     // The files changed under us after open() validated them: say where, keep what was done.
     err << "umsvins replay: stopped early: " << reader.error() << "\n";
   }
-  const double wall_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
-  const long peak_rss_kb = peak_rss_kib();  // before the report and stats are built
+  StreamResult r;
+  r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  r.peak_rss_kb = peak_rss_kib();
   if (!quiet) progress.finish();
+  return r;
+}
 
-  const hal::EurocReaderCounters& counters = reader.counters();
-  const ReplaySummary summary = pipeline.summary();
-  if (trajectory != nullptr) {
-    pipeline.set_trajectory_output(nullptr);
-    pipeline.set_state_output(nullptr);
-    if (std::fclose(trajectory) != 0) throw std::runtime_error(trajectory_path.string() + ": write failed");
-    if (std::fclose(states) != 0) throw std::runtime_error(states_path.string() + ": write failed");
-  }
-  // Accuracy against the dataset's ground truth, when it has one.
-  std::unique_ptr<eval::EvalResult> accuracy;
+struct Accuracy {
+  std::unique_ptr<eval::EvalResult> result;
   std::unique_ptr<eval::ErrorBudget> budget;
-  if (pipeline.has_estimator() && reader.has_groundtruth() && pipeline.poses_written() >= 3) {
-    try {
-      const eval::Trajectory est = eval::read_trajectory(trajectory_path.string(), eval::TrajectoryFormat::kTum);
-      const eval::Trajectory gt = eval::read_trajectory(reader.groundtruth_path());
-      const eval::Trajectory est_in_gt = eval::to_frame(est, gt.frame, config.rig.cam[0].T_b_c);
-      eval::MetricsOptions mo;
-      accuracy = std::make_unique<eval::EvalResult>(eval::evaluate(est_in_gt, gt, mo));
-      try {
-        const eval::ModeTimeline timeline = mode_timeline_of(pipeline.estimator()->stats());
-        budget = std::make_unique<eval::ErrorBudget>(
-            eval::compute_error_budget(est_in_gt, gt, &timeline, eval::BudgetOptions{}));
-      } catch (const std::exception& e) {
-        err << "warning: no error budget: " << e.what() << "\n";
-      }
-    } catch (const std::exception& e) {
-      err << "warning: no accuracy figures: " << e.what() << "\n";
-    }
-  }
+};
 
-  JsonWriter w;
-  w.begin_object();
-  w.value("version", version_string());
-  w.value("dataset", dataset);
-  w.value("wall_s", wall_s, 4);
-  w.value("peak_rss_kb", static_cast<std::int64_t>(peak_rss_kb));
-  pipeline.write_stats(w);
-  if (mavlink != nullptr) {
-    pipeline.set_pose_consumer(nullptr);
-    mavlink->output().write_stats(w);
-    if (!mavlink->close()) err << "warning: " << (out_dir / "mavlink_sent.csv").string() << ": write failed\n";
-  }
-  // An output that could not be written: exit 1 after the rest.
-  const bool failed_write = !finish_loop(loop.get(), pipeline, w, err);
-  if (accuracy != nullptr) {
-    w.begin_object("accuracy")
-        .value("align", "se3")
-        .value("matched_poses", static_cast<std::uint64_t>(accuracy->matched))
-        .value("ate_rmse_m", accuracy->ate.translation_m.rmse, 6)
-        .value("ate_max_m", accuracy->ate.translation_m.max, 6)
-        .value("rotation_rmse_deg", accuracy->ate.rotation_deg.rmse, 6);
-    if (budget != nullptr) {
-      w.begin_object("budget");
-      eval::write_error_budget_json(*budget, w);
-      w.end_object();
+// Accuracy against the dataset's ground truth, when it has one (warnings, never fatal).
+Accuracy evaluate_accuracy(const ReplayPipeline& pipeline, const hal::EurocReader& reader, const AppConfig& config,
+                           const std::filesystem::path& trajectory_path, std::ostream& err) {
+  Accuracy a;
+  if (!pipeline.has_estimator() || !reader.has_groundtruth() || pipeline.poses_written() < 3) return a;
+  try {
+    const eval::Trajectory est = eval::read_trajectory(trajectory_path.string(), eval::TrajectoryFormat::kTum);
+    const eval::Trajectory gt = eval::read_trajectory(reader.groundtruth_path());
+    const eval::Trajectory est_in_gt = eval::to_frame(est, gt.frame, config.rig.cam[0].T_b_c);
+    eval::MetricsOptions mo;
+    a.result = std::make_unique<eval::EvalResult>(eval::evaluate(est_in_gt, gt, mo));
+    try {
+      const eval::ModeTimeline timeline = mode_timeline_of(pipeline.estimator()->stats());
+      a.budget = std::make_unique<eval::ErrorBudget>(
+          eval::compute_error_budget(est_in_gt, gt, &timeline, eval::BudgetOptions{}));
+    } catch (const std::exception& e) {
+      err << "warning: no error budget: " << e.what() << "\n";
     }
+  } catch (const std::exception& e) {
+    err << "warning: no accuracy figures: " << e.what() << "\n";
+  }
+  return a;
+}
+
+void write_accuracy_json(const Accuracy& a, JsonWriter& w) {
+  if (a.result == nullptr) return;
+  w.begin_object("accuracy")
+      .value("align", "se3")
+      .value("matched_poses", static_cast<std::uint64_t>(a.result->matched))
+      .value("ate_rmse_m", a.result->ate.translation_m.rmse, 6)
+      .value("ate_max_m", a.result->ate.translation_m.max, 6)
+      .value("rotation_rmse_deg", a.result->ate.rotation_deg.rmse, 6);
+  if (a.budget != nullptr) {
+    w.begin_object("budget");
+    eval::write_error_budget_json(*a.budget, w);
     w.end_object();
   }
+  w.end_object();
+}
+
+void write_input_json(const hal::EurocReaderCounters& counters, JsonWriter& w) {
   w.begin_object("input")
       .value("stereo_pairs", static_cast<std::uint64_t>(counters.stereo_pairs))
       .value("unpaired_left", static_cast<std::uint64_t>(counters.unpaired_left))
       .value("unpaired_right", static_cast<std::uint64_t>(counters.unpaired_right))
       .value("unreadable_images", static_cast<std::uint64_t>(counters.unreadable_images))
       .end_object();
-  w.end_object();
-  write_file(out_dir / "stats.json", w.str());
-  if (accuracy != nullptr) {
-    // Per-pose error over time (after the SE(3) alignment), for plots and regressions.
-    std::ostringstream csv;
-    csv << "# t_s (since the first ground-truth pose), ate_error_m\n";
-    for (std::size_t i = 0; i < accuracy->ate.t_s.size(); ++i) csv << accuracy->ate.t_s[i] << "," << accuracy->ate.error_m[i] << "\n";
-    write_file(out_dir / "ate_errors.csv", csv.str());
-  }
-  write_report(dataset, reader, pipeline, summary, accuracy.get(), budget.get(), loop.get(), out_dir / "report.html", err);
+}
 
+// Per-pose error over time (after the SE(3) alignment), for plots and regressions.
+void write_ate_errors(const eval::EvalResult& accuracy, const std::filesystem::path& path) {
+  std::ostringstream csv;
+  csv << "# t_s (since the first ground-truth pose), ate_error_m\n";
+  for (std::size_t i = 0; i < accuracy.ate.t_s.size(); ++i) csv << accuracy.ate.t_s[i] << "," << accuracy.ate.error_m[i] << "\n";
+  write_file(path, csv.str());
+}
+
+void print_run(const ReplaySummary& summary, const hal::EurocReaderCounters& counters, double wall_s,
+               const ReplayPipeline& pipeline, const eval::EvalResult* accuracy, const std::filesystem::path& out_dir,
+               const std::filesystem::path& trajectory_path, std::ostream& out) {
   out << "replay: " << summary.frames << " stereo pairs, " << summary.imu_samples
       << " IMU samples, " << summary.duration_s << " s of data in " << wall_s << " s ("
       << summary.processing_s << " s in the pipeline, " << summary.processing_cpu_s << " s of CPU; "
@@ -382,6 +347,84 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
     out << "replay: --frontend-only: no trajectory; wrote ";
   }
   out << (out_dir / "stats.json").string() << " and " << (out_dir / "report.html").string() << "\n";
+}
+
+hal::EurocReaderOptions reader_options_of(const Args& args) {
+  hal::EurocReaderOptions o;
+  o.start_s = args.get_double("start", 0.0);
+  o.duration_s = args.get_double("duration", 0.0);
+  if (o.start_s < 0.0) throw UsageError("umsvins replay: --start must be >= 0 s");
+  if (o.duration_s < 0.0) throw UsageError("umsvins replay: --duration must be >= 0 s");
+  return o;
+}
+
+}  // namespace
+
+int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
+  const Args args("replay", argv, with_mavlink_flags({"realtime", "frontend-only", "quiet", "deterministic", "loop", "no-tight-relocation"}),
+                  with_mavlink_valued({"config", "out", "start", "duration", "vocabulary", "load-map", "save-map", "map-spread-s"}));
+  args.require_positionals(1, "<dataset> (the folder holding mav0/)");
+  const std::string dataset = args.positionals()[0];
+  const std::filesystem::path out_dir = args.get_or("out", "out/replay");
+  hal::EurocReader reader;
+  reader.open(dataset, reader_options_of(args));  // throws with file:line on bad input
+  std::vector<std::string> warnings;
+  const AppConfig config = args.get("config")
+                               ? load_config(*args.get("config"), reader.calibration(), &warnings)
+                               : config_from_calibration(reader.calibration());
+  for (const std::string& w : warnings) err << "warning: " << w << "\n";
+  std::filesystem::create_directories(out_dir);
+
+  ReplayPipelineOptions pipeline_options;
+  pipeline_options.frontend_only = args.has("frontend-only");
+  pipeline_options.deterministic = args.has("deterministic");
+  pipeline_options.report_frames = reader.total_pairs_estimate() + 16;
+  // Start-up footprint: everything the pipeline allocates while it is built, plus itself.
+  AllocScope startup_allocs;
+  ReplayPipeline pipeline(config, pipeline_options);
+  pipeline.set_static_bytes(static_cast<std::size_t>(startup_allocs.bytes()) + sizeof(ReplayPipeline));
+  EstimateFiles files = open_estimate_files(out_dir, pipeline);
+  std::unique_ptr<MavlinkSession> mavlink = mavlink_from_args(args, config, out_dir);
+  // Loop work on its own thread, except in --deterministic runs; --realtime drops what it cannot
+  // take like a live run, a replay as fast as it can waits for it.
+  const LoopThreading loop_threading{pipeline_options.deterministic,
+                                     args.has("realtime") ? QueueFull::kDrop : QueueFull::kWait};
+  std::unique_ptr<LoopSession> loop =
+      pipeline.has_estimator() ? loop_from_args(args, config, out_dir, loop_threading) : nullptr;
+  if (loop != nullptr) loop->attach(pipeline);
+  // With loop closure the flight controller gets the map frame (and a reset at each correction).
+  if (mavlink != nullptr) {
+    pipeline.set_pose_consumer(loop != nullptr ? loop->map_frame(&mavlink->output()) : &mavlink->output());
+  }
+
+  const StreamResult run = stream(reader, pipeline, args.has("realtime"), args.has("quiet"), err);
+  const hal::EurocReaderCounters& counters = reader.counters();
+  const ReplaySummary summary = pipeline.summary();
+  close_estimate_files(&files, pipeline);
+  const Accuracy accuracy = evaluate_accuracy(pipeline, reader, config, files.trajectory_path, err);
+
+  JsonWriter w;
+  w.begin_object();
+  w.value("version", version_string());
+  w.value("dataset", dataset);
+  w.value("wall_s", run.wall_s, 4);
+  w.value("peak_rss_kb", static_cast<std::int64_t>(run.peak_rss_kb));
+  pipeline.write_stats(w);
+  if (mavlink != nullptr) {
+    pipeline.set_pose_consumer(nullptr);
+    mavlink->output().write_stats(w);
+    if (!mavlink->close()) err << "warning: " << (out_dir / "mavlink_sent.csv").string() << ": write failed\n";
+  }
+  // An output that could not be written: exit 1 after the rest.
+  const bool failed_write = !finish_loop(loop.get(), pipeline, w, err);
+  write_accuracy_json(accuracy, w);
+  write_input_json(counters, w);
+  w.end_object();
+  write_file(out_dir / "stats.json", w.str());
+  if (accuracy.result != nullptr) write_ate_errors(*accuracy.result, out_dir / "ate_errors.csv");
+  write_report(dataset, reader, pipeline, summary, accuracy.result.get(), accuracy.budget.get(), loop.get(),
+               out_dir / "report.html", err);
+  print_run(summary, counters, run.wall_s, pipeline, accuracy.result.get(), out_dir, files.trajectory_path, out);
   return failed_write ? kExitFailure : kExitOk;
 }
 
