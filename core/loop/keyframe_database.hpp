@@ -28,7 +28,6 @@ struct LoopFeature {
   Descriptor descriptor{};
   Eigen::Vector3f p_b = Eigen::Vector3f::Zero();       // m, the point in the keyframe's body frame
   Eigen::Vector3f bearing_c0 = Eigen::Vector3f::UnitZ();  // unit, the left camera's observation
-  std::uint32_t landmark_id = 0;  // the window's landmark (a relocation's key); not in map files
 };
 
 struct KeyframeRecord {

@@ -115,7 +115,8 @@ LoopCloser::LoopCloser(const LoopOptions& options, const RigCalibration& rig, co
       events_(new LoopEvent[capacity::kMaxLoopEvents]),
       request_(new RelocationRequest()),
       pair_q_(new std::uint16_t[capacity::kMaxLoopFeaturesPerKeyframe]),
-      pair_c_(new std::uint16_t[capacity::kMaxLoopFeaturesPerKeyframe]) {
+      pair_c_(new std::uint16_t[capacity::kMaxLoopFeaturesPerKeyframe]),
+      newest_landmarks_(new std::uint32_t[capacity::kMaxLoopFeaturesPerKeyframe]) {
   if (vocabulary.empty()) throw std::invalid_argument("loop closure: the vocabulary is empty");
   calibration_hash_ = hash_calibration(rig);
 }
@@ -252,7 +253,7 @@ void LoopCloser::prepare(const MarginalizedKeyframe& k, LoopKeyframe* out) const
     f.descriptor = pend->descriptor[it - pend->feature_id];
     f.p_b = (T_b_odom * o.p_odom).cast<float>();
     f.bearing_c0 = o.bearing_left;
-    f.landmark_id = o.landmark_id;
+    out->landmark_id[out->features.size()] = o.landmark_id;
     out->features.push_back(f);
   }
 }
@@ -273,6 +274,8 @@ void LoopCloser::build_record(const LoopKeyframe& k, std::uint32_t slot) {
   }
   r.features.clear();
   for (const LoopFeature& f : k.features) r.features.push_back(f);
+  std::copy(k.landmark_id, k.landmark_id + k.features.size(), newest_landmarks_.get());
+  newest_slot_ = slot;
   for (std::size_t i = 0; i < r.features.size(); ++i) scratch_[i] = r.features[i].descriptor;
   vocabulary_.transform(scratch_.get(), r.features.size(), &r.bow);
 }
@@ -498,7 +501,8 @@ std::size_t LoopCloser::footprint_bytes() const {
          kPending * sizeof(Pending) + sizeof(LoopKeyframe) + capacity::kMaxLoopFeaturesPerKeyframe * sizeof(Descriptor) +
          capacity::kMaxKeyframes * (sizeof(std::int32_t) + sizeof(std::uint32_t)) +
          capacity::kMaxLoopEdges * sizeof(LoopEdge) + capacity::kMaxLoopEvents * sizeof(LoopEvent) +
-         capacity::kMaxKeyframes * sizeof(SavedPose) + sizeof(*this);
+         capacity::kMaxKeyframes * sizeof(SavedPose) + sizeof(RelocationRequest) +
+         capacity::kMaxLoopFeaturesPerKeyframe * (2 * sizeof(std::uint16_t) + sizeof(std::uint32_t)) + sizeof(*this);
 }
 
 }  // namespace ums::loop

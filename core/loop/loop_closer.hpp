@@ -285,6 +285,8 @@ class LoopCloser final : public KeyframeSink, public KeyframeImageSink, public M
   std::unique_ptr<RelocationRequest> request_;
   bool has_request_ = false;
   std::unique_ptr<std::uint16_t[]> pair_q_, pair_c_;  // inlier pairs for a request
+  std::unique_ptr<std::uint32_t[]> newest_landmarks_;  // per feature of the newest kept keyframe
+  std::uint32_t newest_slot_ = 0;                     // its database slot (the only query)
   void begin_session(std::uint32_t epoch);
 
   std::uint32_t session_ = 0;

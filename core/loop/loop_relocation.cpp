@@ -20,10 +20,11 @@ void LoopCloser::request_relocation(const KeyframeRecord& q, const KeyframeRecor
   r.T_odom_q = q.T_odom_b;
   r.T_q_loop = g.T_c_q.inverse();
   r.matches.clear();
+  if (&q != &db_->at(newest_slot_)) return;  // a query is always the newest keyframe
   const int n = verifier_.inlier_pairs(pair_q_.get(), pair_c_.get());
   for (int k = 0; k < n; ++k) {
     RelocationMatch m;
-    m.landmark_id = q.features[pair_q_[k]].landmark_id;
+    m.landmark_id = newest_landmarks_[pair_q_[k]];
     m.bearing_c0 = c.features[pair_c_[k]].bearing_c0;
     m.p_loop_b = c.features[pair_c_[k]].p_b;
     if (r.matches.push_back(m) != Status::kOk) break;

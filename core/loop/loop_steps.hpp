@@ -24,6 +24,9 @@ struct LoopKeyframe {
   bool described = false;  // its image was described (else it has no features)
   Eigen::Isometry3d T_odom_b = Eigen::Isometry3d::Identity();
   FixedVector<LoopFeature, capacity::kMaxLoopFeaturesPerKeyframe> features;
+  // Per feature, the window's landmark id (a relocation request's key: only the newest keyframe's
+  // are kept, not the database's 2000 x 300).
+  std::uint32_t landmark_id[capacity::kMaxLoopFeaturesPerKeyframe] = {};
 };
 
 // Where the current odometry frame sits in the map (what a MapFrameSource answers from).
