@@ -118,6 +118,119 @@ int run_record(const std::vector<std::string>& argv, std::ostream& out, std::ost
   return kExitOk;
 }
 
+namespace {
+
+// Where live data comes from: a recorded dataset pushed as if live, or the D455.
+struct LiveSource {
+  std::unique_ptr<hal::EurocReader> reader;
+  std::unique_ptr<d455::LinuxSys> sys;
+  std::unique_ptr<d455::D455Device> device;
+  AppConfig config;
+};
+
+// nullptr after printing why when the D455 cannot be opened or started.
+std::unique_ptr<LiveSource> open_source(const Args& args, const std::string& source, std::ostream& err) {
+  auto s = std::make_unique<LiveSource>();
+  if (source.rfind("replay:", 0) == 0) {
+    hal::EurocReaderOptions reader_options;
+    reader_options.duration_s = args.get_double("duration", 0.0);
+    s->reader = std::make_unique<hal::EurocReader>();
+    s->reader->open(source.substr(7), reader_options);
+    std::vector<std::string> warnings;
+    s->config = args.get("config") ? load_config(*args.get("config"), s->reader->calibration(), &warnings)
+                                   : config_from_calibration(s->reader->calibration());
+    for (const std::string& w : warnings) err << "warning: " << w << "\n";
+  } else if (source == "d455") {
+    s->config = device_config(args, err);
+    s->sys = std::make_unique<d455::LinuxSys>();
+    s->device = std::make_unique<d455::D455Device>(*s->sys, d455::SysFs(), device_options_from(s->config));
+    std::string error;
+    if (s->device->open(&error) != Status::kOk || s->device->start(&error) != Status::kOk) {
+      err << "umsvins live: " << error << "\n";
+      return nullptr;
+    }
+  } else {
+    throw UsageError("umsvins live: --source must be d455 or replay:DIR, got '" + source + "'");
+  }
+  return s;
+}
+
+// Poses: camera-rate optimized (trajectory.tum) and IMU-rate propagated (trajectory_imu.tum).
+struct LivePoseFiles {
+  std::filesystem::path trajectory_path, imu_path;
+  std::FILE* trajectory = nullptr;
+  std::FILE* imu_poses = nullptr;
+};
+
+LivePoseFiles open_pose_files(const std::filesystem::path& out_dir, ReplayPipeline& pipeline) {
+  LivePoseFiles f{out_dir / "trajectory.tum", out_dir / "trajectory_imu.tum"};
+  f.trajectory = std::fopen(f.trajectory_path.c_str(), "w");
+  f.imu_poses = std::fopen(f.imu_path.c_str(), "w");
+  if (f.trajectory == nullptr || f.imu_poses == nullptr) {
+    if (f.trajectory != nullptr) std::fclose(f.trajectory);
+    if (f.imu_poses != nullptr) std::fclose(f.imu_poses);
+    throw std::runtime_error(out_dir.string() + ": cannot open the pose files for writing");
+  }
+  pipeline.set_trajectory_output(f.trajectory);
+  pipeline.set_imu_pose_output(f.imu_poses);
+  return f;
+}
+
+// false when a write failed (disk full?).
+bool close_pose_files(LivePoseFiles* f, ReplayPipeline& pipeline) {
+  pipeline.set_trajectory_output(nullptr);
+  pipeline.set_imu_pose_output(nullptr);
+  const bool trajectory_ok = std::fclose(f->trajectory) == 0;
+  const bool imu_ok = std::fclose(f->imu_poses) == 0;
+  return trajectory_ok && imu_ok;
+}
+
+struct ProducerResult {
+  Status status = Status::kOk;
+  std::string error;
+};
+
+// The capture thread fills the bridge (the dataset with backpressure, or the D455 until Ctrl-C,
+// --seconds or a stall); this thread drains it into the pipeline until both are done.
+ProducerResult run_threads(LiveSource& src, d455::ThreadBridge& bridge, ReplayPipeline& pipeline, double seconds) {
+  SigintScope sigint;
+  std::atomic<bool> producer_done{false};
+  ProducerResult result;
+  const auto start = std::chrono::steady_clock::now();
+  std::thread capture([&] {
+    if (src.reader) {
+      BackpressureSink sink(&bridge);
+      result.status = src.reader->push_all(sink);
+      if (result.status != Status::kOk) result.error = src.reader->error();
+    } else {
+      d455::set_realtime_priority(10);  // best effort: refused without CAP_SYS_NICE
+      while (!g_stop.load()) {
+        if (seconds > 0.0 && std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() >= seconds) {
+          break;
+        }
+        if (src.device->poll_once(bridge, 200) == Status::kIoError) {
+          result.status = Status::kIoError;
+          result.error = "the D455 stopped delivering (unplugged?)";
+          break;
+        }
+      }
+      src.device->stop();
+    }
+    producer_done.store(true);
+  });
+  for (;;) {
+    const bool done = producer_done.load();
+    if (bridge.drain(pipeline) == 0) {
+      if (done && bridge.pending() == 0) break;
+      std::this_thread::sleep_for(std::chrono::microseconds(500));
+    }
+  }
+  capture.join();
+  return result;
+}
+
+}  // namespace
+
 int run_live(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
   const Args args("live", argv, with_mavlink_flags({"quiet", "loop", "no-tight-relocation"}),
                   with_mavlink_valued({"config", "source", "out", "seconds", "duration", "vocabulary", "load-map",
@@ -126,50 +239,16 @@ int run_live(const std::vector<std::string>& argv, std::ostream& out, std::ostre
   const std::filesystem::path out_dir = args.get_or("out", "out/live");
   const std::string source = args.get_or("source", "d455");
   const double seconds = args.get_double("seconds", 0.0);
-
-  std::unique_ptr<hal::EurocReader> reader;
-  std::unique_ptr<d455::LinuxSys> sys;
-  std::unique_ptr<d455::D455Device> device;
-  AppConfig config;
-  if (source.rfind("replay:", 0) == 0) {
-    hal::EurocReaderOptions reader_options;
-    reader_options.duration_s = args.get_double("duration", 0.0);
-    reader = std::make_unique<hal::EurocReader>();
-    reader->open(source.substr(7), reader_options);
-    std::vector<std::string> warnings;
-    config = args.get("config") ? load_config(*args.get("config"), reader->calibration(), &warnings)
-                                : config_from_calibration(reader->calibration());
-    for (const std::string& w : warnings) err << "warning: " << w << "\n";
-  } else if (source == "d455") {
-    config = device_config(args, err);
-    sys = std::make_unique<d455::LinuxSys>();
-    device = std::make_unique<d455::D455Device>(*sys, d455::SysFs(), device_options_from(config));
-    std::string error;
-    if (device->open(&error) != Status::kOk || device->start(&error) != Status::kOk) {
-      err << "umsvins live: " << error << "\n";
-      return kExitFailure;
-    }
-  } else {
-    throw UsageError("umsvins live: --source must be d455 or replay:DIR, got '" + source + "'");
-  }
+  std::unique_ptr<LiveSource> src = open_source(args, source, err);
+  if (src == nullptr) return kExitFailure;
+  const AppConfig& config = src->config;
   std::filesystem::create_directories(out_dir);
 
   AllocScope startup_allocs;
   ReplayPipeline pipeline(config, ReplayPipelineOptions{});
   pipeline.set_static_bytes(static_cast<std::size_t>(startup_allocs.bytes()) + sizeof(ReplayPipeline));
   auto bridge = std::make_unique<d455::ThreadBridge>(config.rig.cam[0].width, config.rig.cam[0].height);
-  // Poses: camera-rate optimized (trajectory.tum) and IMU-rate propagated (trajectory_imu.tum).
-  const std::filesystem::path trajectory_path = out_dir / "trajectory.tum";
-  const std::filesystem::path imu_path = out_dir / "trajectory_imu.tum";
-  std::FILE* trajectory = std::fopen(trajectory_path.c_str(), "w");
-  std::FILE* imu_poses = std::fopen(imu_path.c_str(), "w");
-  if (trajectory == nullptr || imu_poses == nullptr) {
-    if (trajectory != nullptr) std::fclose(trajectory);
-    if (imu_poses != nullptr) std::fclose(imu_poses);
-    throw std::runtime_error(out_dir.string() + ": cannot open the pose files for writing");
-  }
-  pipeline.set_trajectory_output(trajectory);
-  pipeline.set_imu_pose_output(imu_poses);
+  LivePoseFiles files = open_pose_files(out_dir, pipeline);
   std::unique_ptr<MavlinkSession> mavlink = mavlink_from_args(args, config, out_dir);
   // Live: a frame never waits for loop closure (a keyframe the loop thread cannot take is counted).
   std::unique_ptr<LoopSession> loop = loop_from_args(args, config, out_dir, LoopThreading{false, QueueFull::kDrop});
@@ -178,49 +257,8 @@ int run_live(const std::vector<std::string>& argv, std::ostream& out, std::ostre
     pipeline.set_pose_consumer(loop != nullptr ? loop->map_frame(&mavlink->output()) : &mavlink->output());
   }
 
-  SigintScope sigint;
-  std::atomic<bool> producer_done{false};
-  Status producer_status = Status::kOk;
-  std::string producer_error;
-  const auto start = std::chrono::steady_clock::now();
-
-  std::thread capture([&] {
-    if (reader) {
-      BackpressureSink sink(bridge.get());
-      producer_status = reader->push_all(sink);
-      if (producer_status != Status::kOk) producer_error = reader->error();
-    } else {
-      d455::set_realtime_priority(10);  // best effort: refused without CAP_SYS_NICE
-      while (!g_stop.load()) {
-        if (seconds > 0.0 &&
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() >= seconds) {
-          break;
-        }
-        const Status st = device->poll_once(*bridge, 200);
-        if (st == Status::kIoError) {
-          producer_status = st;
-          producer_error = "the D455 stopped delivering (unplugged?)";
-          break;
-        }
-      }
-      device->stop();
-    }
-    producer_done.store(true);
-  });
-
-  // This thread runs the pipeline: drain until the producer is done and the bridge is empty.
-  for (;;) {
-    const bool done = producer_done.load();
-    if (bridge->drain(pipeline) == 0) {
-      if (done && bridge->pending() == 0) break;
-      std::this_thread::sleep_for(std::chrono::microseconds(500));
-    }
-  }
-  capture.join();
-  pipeline.set_trajectory_output(nullptr);
-  pipeline.set_imu_pose_output(nullptr);
-  const bool poses_ok = std::fclose(trajectory) == 0 && std::fclose(imu_poses) == 0;
-
+  const ProducerResult producer = run_threads(*src, *bridge, pipeline, seconds);
+  const bool poses_ok = close_pose_files(&files, pipeline);
   const ReplaySummary summary = pipeline.summary();
   JsonWriter w;
   w.begin_object();
@@ -245,14 +283,14 @@ int run_live(const std::vector<std::string>& argv, std::ostream& out, std::ostre
       << source << "; ring overflows: " << bridge->frames_dropped() << " frames, " << bridge->imu_dropped()
       << " IMU samples\n";
   pipeline.print_summary(out);
-  out << "live: " << pipeline.poses_written() << " poses in " << trajectory_path.string() << ", IMU-rate poses in "
-      << imu_path.string() << "\n";
+  out << "live: " << pipeline.poses_written() << " poses in " << files.trajectory_path.string()
+      << ", IMU-rate poses in " << files.imu_path.string() << "\n";
   if (!poses_ok) {
     err << "umsvins live: writing the pose files failed (disk full?)\n";
     return kExitFailure;
   }
-  if (producer_status != Status::kOk) {
-    err << "umsvins live: " << producer_error << "\n";
+  if (producer.status != Status::kOk) {
+    err << "umsvins live: " << producer.error << "\n";
     return kExitFailure;
   }
   return failed_write ? kExitFailure : kExitOk;
