@@ -3,17 +3,17 @@
 #include <cmath>
 #include <limits>
 
+#include "core/math/quaternion.hpp"
+
 namespace ums::loop {
 
 namespace {
-
-double yaw_of(const Eigen::Matrix3d& R) { return std::atan2(R(1, 0), R(0, 0)); }
 
 // Distance of two keyframes for decimation: metres plus yaw at 1 m per 10 degrees (a keyframe
 // that turned the view is worth keeping even when the vehicle hovers).
 double spacing(const KeyframeRecord& a, const KeyframeRecord& b) {
   const double dp_m = (a.T_odom_b.translation() - b.T_odom_b.translation()).norm();
-  double dyaw = std::abs(yaw_of(a.T_odom_b.linear()) - yaw_of(b.T_odom_b.linear()));
+  double dyaw = std::abs(quat::yaw(a.T_odom_b.linear()) - quat::yaw(b.T_odom_b.linear()));
   if (dyaw > M_PI) dyaw = 2.0 * M_PI - dyaw;
   return dp_m + dyaw * (180.0 / M_PI) / 10.0;
 }

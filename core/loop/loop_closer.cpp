@@ -6,19 +6,13 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/math/quaternion.hpp"
+
 namespace ums::loop {
 
 namespace {
 
 constexpr double kDegPerRad = 180.0 / M_PI;
-
-double yaw_of(const Eigen::Matrix3d& R) { return std::atan2(R(1, 0), R(0, 0)); }
-
-double wrap_rad(double a) {
-  while (a > M_PI) a -= 2.0 * M_PI;
-  while (a < -M_PI) a += 2.0 * M_PI;
-  return a;
-}
 
 double angle_deg(const Eigen::Matrix3d& R) {
   return Eigen::AngleAxisd(R).angle() * kDegPerRad;
@@ -345,7 +339,7 @@ bool LoopCloser::passes_gates(std::uint32_t q_slot, std::uint32_t c_slot, const 
   // Drift budget (OKVIS2): the loop may move the query no more than odometry can have drifted.
   const Eigen::Isometry3d E = (c.T_map_b * g.T_c_q).inverse() * q.T_map_b;
   const double flown_m = std::abs(q.path_m - c.path_m);
-  const double dyaw_deg = std::abs(wrap_rad(yaw_of(E.linear()))) * kDegPerRad;
+  const double dyaw_deg = std::abs(quat::wrap_angle_rad(quat::yaw(E.linear()))) * kDegPerRad;
   if (E.translation().norm() > options_.drift_base_m + options_.drift_per_m * flown_m ||
       dyaw_deg > options_.drift_base_deg + options_.drift_per_m_deg * flown_m) {
     reject(LoopGate::kDriftBudget);
@@ -398,7 +392,7 @@ bool LoopCloser::close_loop(std::uint32_t q_slot, std::uint32_t c_slot, const Lo
 
 double LoopCloser::loop_residual_sigma(const LoopEdge& l) const {
   const Eigen::Isometry3d E = (db_->at(l.c_slot).T_map_b * l.T_c_q).inverse() * db_->at(l.q_slot).T_map_b;
-  return std::max(E.translation().norm() / l.sigma_p_m, std::abs(wrap_rad(yaw_of(E.linear()))) / l.sigma_yaw_rad);
+  return std::max(E.translation().norm() / l.sigma_p_m, std::abs(quat::wrap_angle_rad(quat::yaw(E.linear()))) / l.sigma_yaw_rad);
 }
 
 void LoopCloser::save_map_state() {
@@ -443,7 +437,7 @@ void LoopCloser::place_session(const KeyframeRecord& q, const Eigen::Isometry3d&
   // loop's own roll/pitch error, up to the gravity gate, must not tilt the session).
   const Eigen::Matrix3d R = T_map_q.linear() * q.T_odom_b.linear().transpose();
   T_map_odom_.setIdentity();
-  T_map_odom_.linear() = Eigen::AngleAxisd(yaw_of(R), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  T_map_odom_.linear() = Eigen::AngleAxisd(quat::yaw(R), Eigen::Vector3d::UnitZ()).toRotationMatrix();
   T_map_odom_.translation() = T_map_q.translation() - T_map_odom_.linear() * q.T_odom_b.translation();
   if (q.session == session_) session_placed_ = placed;
   for (std::int32_t s = db_->oldest(); s >= 0; s = db_->at(s).next) {

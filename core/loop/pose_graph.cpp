@@ -14,7 +14,6 @@ namespace ums::loop {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr std::size_t kVecLen = 4 * capacity::kMaxKeyframes;
 enum VecSlot : std::size_t { kB = 0, kDx, kR, kZ, kD, kQ, kNumVecs };
 // Floor of the LM damping's diag(H) entries: a node whose block is still (near) empty gets a
@@ -61,11 +60,6 @@ void PoseGraphOptions::validate() const {
   if (!(step_tolerance >= 0.0)) fail("step_tolerance", step_tolerance);
 }
 
-double wrap_angle_rad(double a_rad) {
-  const double w = std::remainder(a_rad, 2.0 * kPi);  // [-pi, pi]
-  return w <= -kPi ? w + 2.0 * kPi : w;
-}
-
 Eigen::Vector4d four_dof_residual(const Pose4Dof& x_i, const Eigen::Matrix3d& R_rp_i,
                                   const Pose4Dof& x_j, const RelativePose4Dof& z_i_j,
                                   Eigen::Matrix4d* d_r_d_x_i, Eigen::Matrix4d* d_r_d_x_j) {
@@ -77,7 +71,7 @@ Eigen::Vector4d four_dof_residual(const Pose4Dof& x_i, const Eigen::Matrix3d& R_
   const Eigen::Matrix3d R_i_w = R_rp_i.transpose() * Rz_t;
   Eigen::Vector4d r;
   r.head<3>() = R_i_w * p_w_ij - z_i_j.t_i_j_m;
-  r(3) = wrap_angle_rad(x_j.yaw_rad - x_i.yaw_rad - z_i_j.yaw_i_j_rad);
+  r(3) = quat::wrap_angle_rad(x_j.yaw_rad - x_i.yaw_rad - z_i_j.yaw_i_j_rad);
   if (d_r_d_x_i) {
     Eigen::Matrix3d dRz_t;  // d Rz(yaw)^T / d yaw
     dRz_t << -s, c, 0.0, -c, -s, 0.0, 0.0, 0.0, 0.0;
@@ -342,7 +336,7 @@ double PoseGraph4Dof::apply_step() {
     if (fixed_[k]) continue;
     const ConstVec4Map step = block(dx, k);
     x_[k].p_w_b_m += step.head<3>();
-    x_[k].yaw_rad = wrap_angle_rad(x_[k].yaw_rad + step(3));
+    x_[k].yaw_rad = quat::wrap_angle_rad(x_[k].yaw_rad + step(3));
     max_step = std::max(max_step, step.cwiseAbs().maxCoeff());
   }
   return max_step;

@@ -55,9 +55,6 @@ struct RelativePose4Dof {
   double yaw_i_j_rad = 0.0;                           // yaw_j - yaw_i
 };
 
-// (-pi, pi].
-double wrap_angle_rad(double a_rad);
-
 // The unwhitened residual [r_p (m), r_yaw (rad)] above, and its Jacobians with respect to
 // x_i and x_j, columns ordered [dp (3), dyaw]. R_rp_i: node i's fixed roll/pitch rotation.
 Eigen::Vector4d four_dof_residual(const Pose4Dof& x_i, const Eigen::Matrix3d& R_rp_i,

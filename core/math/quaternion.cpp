@@ -47,6 +47,11 @@ Eigen::Quaterniond small_angle(const Eigen::Vector3d& dtheta_rad) {
 
 double yaw(const Eigen::Matrix3d& R_w_b) { return std::atan2(R_w_b(1, 0), R_w_b(0, 0)); }
 
+double wrap_angle_rad(double a_rad) {
+  const double w = std::remainder(a_rad, 2.0 * M_PI);  // [-pi, pi]
+  return w <= -M_PI ? w + 2.0 * M_PI : w;
+}
+
 Eigen::Matrix3d remove_yaw(const Eigen::Matrix3d& R_w_b) {
   const double psi = yaw(R_w_b);
   return Eigen::AngleAxisd(-psi, Eigen::Vector3d::UnitZ()).toRotationMatrix() * R_w_b;

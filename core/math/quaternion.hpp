@@ -27,5 +27,7 @@ Eigen::Quaterniond small_angle(const Eigen::Vector3d& dtheta_rad);
 Eigen::Matrix3d remove_yaw(const Eigen::Matrix3d& R_w_b);
 // Yaw (rad) of R_w_b: the heading of the body x axis projected on the world x-y plane (ZYX Euler).
 double yaw(const Eigen::Matrix3d& R_w_b);
+// An angle (rad) wrapped into (-pi, pi].
+double wrap_angle_rad(double a_rad);
 
 }  // namespace ums::quat

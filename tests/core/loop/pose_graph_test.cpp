@@ -84,7 +84,7 @@ Errors errors(const std::vector<Eigen::Isometry3d>& est, const std::vector<Eigen
     const double d = (est[k].translation() - truth[k].translation()).norm();
     e.rms_m += d * d;
     e.max_m = std::max(e.max_m, d);
-    const double dyaw = wrap_angle_rad(quat::yaw(est[k].linear()) - quat::yaw(truth[k].linear()));
+    const double dyaw = quat::wrap_angle_rad(quat::yaw(est[k].linear()) - quat::yaw(truth[k].linear()));
     e.max_yaw_deg = std::max(e.max_yaw_deg, std::abs(dyaw) / kDeg);
   }
   e.rms_m = std::sqrt(e.rms_m / static_cast<double>(truth.size()));
@@ -134,7 +134,7 @@ TEST_CASE("four_dof_residual: analytic Jacobians equal central differences", "[l
     x_j.p_w_b_m = 5.0 * Eigen::Vector3d(u(rng), u(rng), u(rng));
     x_i.yaw_rad = 3.0 * u(rng);
     x_j.yaw_rad = 3.0 * u(rng);
-    RelativePose4Dof z{Eigen::Vector3d(u(rng), u(rng), u(rng)), wrap_angle_rad(x_j.yaw_rad - x_i.yaw_rad + 0.1 * u(rng))};
+    RelativePose4Dof z{Eigen::Vector3d(u(rng), u(rng), u(rng)), quat::wrap_angle_rad(x_j.yaw_rad - x_i.yaw_rad + 0.1 * u(rng))};
     Eigen::Matrix4d J_i, J_j;
     four_dof_residual(x_i, R_rp_i, x_j, z, &J_i, &J_j);
     const double h = 1e-6;
