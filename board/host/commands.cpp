@@ -19,7 +19,8 @@ usage: umsvins <command> [options]
       (and DIR/trajectory.tum, DIR/report.html where those stages exist). Default DIR: out/replay.
       --loop: loop closure with the built-in vocabulary (--vocabulary F: with that one, from
       umsvins vocab train); the loop work runs on its own thread (not with --deterministic). Writes
-      DIR/trajectory_map.tum (poses in the map frame) and DIR/loops.csv (docs/loop-closure.md);
+      DIR/trajectory_map.tum (every frame in the final map, written at the end),
+      DIR/trajectory_map_live.tum (in the map frame as flown) and DIR/loops.csv (docs/loop-closure.md);
       --save-map F writes the map at the end, --load-map F starts in a saved map's frame; with
       --mavlink the map frame goes out, each correction a reset or, with --map-spread-s S, a ramp.
       --no-tight-relocation: loops keep the verifier's measurement (no refinement in the window).

@@ -12,6 +12,7 @@
 #include "board/host/cli_args.hpp"
 #include "board/host/replay_pipeline.hpp"
 #include "core/estimator/estimator.hpp"
+#include "core/loop/final_map_poses.hpp"
 
 namespace ums::cli {
 
@@ -27,12 +28,18 @@ LoopSession::LoopSession(const std::filesystem::path& vocabulary, const loop::Lo
                          const std::filesystem::path& out_dir)
     : out_dir_(out_dir),
       map_path_(out_dir / "trajectory_map.tum"),
+      live_path_(out_dir / "trajectory_map_live.tum"),
       vocabulary_path_(vocabulary.empty() ? std::string(kBuiltinVocabularyName) : vocabulary.string()),
       vocabulary_(read_vocabulary(vocabulary)),
       closer_(std::make_unique<loop::LoopCloser>(options, config.rig, vocabulary_)) {
-  map_file_ = std::fopen(map_path_.c_str(), "w");
-  if (map_file_ == nullptr) throw std::runtime_error(map_path_.string() + ": cannot open for writing");
-  std::fputs("# t_s x y z qx qy qz qw (body = IMU in the map frame: T_map_odom * T_odom_b; umsvins)\n", map_file_);
+  live_file_ = std::fopen(live_path_.c_str(), "w");
+  if (live_file_ == nullptr) throw std::runtime_error(live_path_.string() + ": cannot open for writing");
+  std::fputs("# t_s x y z qx qy qz qw (body = IMU in the map frame as flown: T_map_odom * T_odom_b with the map "
+             "frame known at each frame's time; umsvins)\n", live_file_);
+  // The odometry per frame, read back at the end for trajectory_map.tum (a file, not memory: a
+  // flight of any length).
+  frames_ = std::tmpfile();
+  if (frames_ == nullptr) throw std::runtime_error(std::string("a temporary file for the map trajectory: ") + std::strerror(errno));
 }
 
 void LoopSession::run_on_thread(QueueFull when_full) {
@@ -59,7 +66,8 @@ void LoopSession::load_map(const std::filesystem::path& path) {
 
 LoopSession::~LoopSession() {
   if (worker_ != nullptr) worker_->stop();
-  if (map_file_ != nullptr) std::fclose(map_file_);
+  if (live_file_ != nullptr) std::fclose(live_file_);
+  if (frames_ != nullptr) std::fclose(frames_);
 }
 
 void LoopSession::attach(ReplayPipeline& pipeline) {
@@ -82,15 +90,61 @@ void LoopSession::detach(ReplayPipeline& pipeline) {
   pipeline.set_map_pose_consumer(nullptr);
 }
 
+namespace {
+
+// One frame's odometry in the temporary file.
+struct FrameRecord {
+  std::int64_t t_ns;
+  std::uint32_t epoch;
+  double p[3];
+  double q[4];  // x y z w
+};
+
+void write_tum_line(std::FILE* f, std::int64_t t_ns, const Eigen::Vector3d& p, const Eigen::Quaterniond& q) {
+  std::fprintf(f, "%lld.%09lld %.7f %.7f %.7f %.9f %.9f %.9f %.9f\n", static_cast<long long>(t_ns / 1000000000),
+               static_cast<long long>(t_ns % 1000000000), p.x(), p.y(), p.z(), q.x(), q.y(), q.z(), q.w());
+}
+
+Eigen::Isometry3d pose_of(const FrameRecord& r) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::Quaterniond(r.q[3], r.q[0], r.q[1], r.q[2]).toRotationMatrix();
+  T.translation() = Eigen::Vector3d(r.p[0], r.p[1], r.p[2]);
+  return T;
+}
+
+}  // namespace
+
 void LoopSession::on_frame_pose(const EstimatorOutput& out) {
+  if (frames_ != nullptr) {
+    const FrameRecord r{out.t_ns, out.odometry_epoch, {out.p_w_b.x(), out.p_w_b.y(), out.p_w_b.z()},
+                        {out.q_w_b.x(), out.q_w_b.y(), out.q_w_b.z(), out.q_w_b.w()}};
+    if (std::fwrite(&r, sizeof(r), 1, frames_) != 1) frames_failed_ = true;
+  }
   Eigen::Isometry3d T_map_odom;
-  if (map_file_ == nullptr || !source().map_from_odometry(out.odometry_epoch, &T_map_odom)) return;
-  const Eigen::Vector3d p = T_map_odom * out.p_w_b;
-  const Eigen::Quaterniond q = Eigen::Quaterniond(T_map_odom.linear() * out.q_w_b.toRotationMatrix()).normalized();
-  std::fprintf(map_file_, "%lld.%09lld %.7f %.7f %.7f %.9f %.9f %.9f %.9f\n",
-               static_cast<long long>(out.t_ns / 1000000000), static_cast<long long>(out.t_ns % 1000000000),
-               p.x(), p.y(), p.z(), q.x(), q.y(), q.z(), q.w());
-  ++map_poses_;
+  if (live_file_ == nullptr || !source().map_from_odometry(out.odometry_epoch, &T_map_odom)) return;
+  write_tum_line(live_file_, out.t_ns, T_map_odom * out.p_w_b,
+                 Eigen::Quaterniond(T_map_odom.linear() * out.q_w_b.toRotationMatrix()).normalized());
+  ++live_poses_;
+}
+
+std::string LoopSession::write_final_map() {
+  if (frames_ == nullptr || frames_failed_ || std::fflush(frames_) != 0) return "the temporary file of the map trajectory: write failed";
+  loop::FinalMapPoses final_map(closer_->database());
+  FrameRecord r{};
+  std::FILE* f = std::fopen(map_path_.c_str(), "w");
+  if (f == nullptr) return map_path_.string() + ": " + std::strerror(errno);
+  std::fputs("# t_s x y z qx qy qz qw (body = IMU in the final map: every frame placed through its keyframes' "
+             "optimized map poses; umsvins)\n", f);
+  std::rewind(frames_);
+  while (std::fread(&r, sizeof(r), 1, frames_) == 1) {
+    Eigen::Isometry3d T_map_b;
+    if (!final_map.map_pose(r.t_ns, r.epoch, pose_of(r), &T_map_b)) continue;
+    write_tum_line(f, r.t_ns, T_map_b.translation(), Eigen::Quaterniond(T_map_b.linear()).normalized());
+    ++map_poses_;
+  }
+  const bool read_ok = std::ferror(frames_) == 0;
+  if (std::fclose(f) != 0) return map_path_.string() + ": " + std::strerror(errno);
+  return read_ok ? "" : "the temporary file of the map trajectory: read failed";
 }
 
 std::string LoopSession::finish() {
@@ -100,10 +154,12 @@ std::string LoopSession::finish() {
     worker_stats_ = worker_->stats();
   }
   std::string error;
-  if (map_file_ != nullptr) {
-    if (std::fclose(map_file_) != 0) error = failed(map_path_);
-    map_file_ = nullptr;
+  if (live_file_ != nullptr) {
+    if (std::fclose(live_file_) != 0) error = failed(live_path_);
+    live_file_ = nullptr;
   }
+  const std::string map_error = write_final_map();
+  if (error.empty()) error = map_error;
   const std::filesystem::path loops_path = out_dir_ / "loops.csv";
   std::ofstream csv(loops_path);
   csv << "# t_query_s,t_loop_s,query_frame,loop_frame,inliers,correction_m,correction_deg,relocalization,"
@@ -176,6 +232,7 @@ void LoopSession::write_stats(JsonWriter& w) const {
       .value("mean_keyframe_ms", s.keyframes_in > 0 ? s.keyframe_ms_sum / static_cast<double>(s.keyframes_in) : 0.0, 3)
       .value("max_keyframe_ms", s.max_keyframe_ms, 3)
       .value("map_poses", map_poses_)
+      .value("map_live_poses", live_poses_)
       .value("loaded_map", loaded_map_path_)
       .value("loaded_keyframes", static_cast<std::uint64_t>(closer_->loaded_keyframes()))
       .value("saved_map", save_map_path_.string())

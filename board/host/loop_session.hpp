@@ -1,8 +1,10 @@
 #pragma once
 // Loop closure in a replay or a live run: the vocabulary read from its file, the LoopCloser fed
-// by the pipeline's keyframes, and its outputs: trajectory_map.tum (T_map_odom * T_odom_b per
-// frame, from the first frame that has a map pose; trajectory.tum stays the continuous
-// odometry), loops.csv (every accepted loop with its size) and stats.json's "loop" object.
+// by the pipeline's keyframes, and its outputs: trajectory_map_live.tum (T_map_odom * T_odom_b
+// per frame as flown, with the map frame known at the frame's time: what the MAVLink output
+// sent), trajectory_map.tum (written at the end: every frame placed through the final map's
+// keyframes, core/loop/final_map_poses.hpp), loops.csv (every accepted loop with its size) and
+// stats.json's "loop" object. trajectory.tum stays the continuous odometry.
 //
 // Flags: --loop turns loop closure on with the built-in vocabulary, --vocabulary F with that one
 // (neither: no loop closure, the outputs are not written and stats.json says "loop":
@@ -61,7 +63,7 @@ class LoopSession final : public PoseSink {
   // Where the map frame is read from: the worker's published placement, or the closer.
   const loop::MapFrameSource& source() const;
 
-  // Closes trajectory_map.tum, writes loops.csv and the map file (--save-map); "" or what failed
+  // Closes trajectory_map_live.tum, writes trajectory_map.tum, loops.csv and the map file (--save-map); "" or what failed
   // ("<file>: <reason>").
   std::string finish();
   void write_stats(JsonWriter& w) const;
@@ -72,11 +74,13 @@ class LoopSession final : public PoseSink {
   // --map-spread-s: corrections to the live output spread over this many seconds (0: a step).
   void set_map_spread_s(double spread_s) { spread_s_ = spread_s; }
   std::uint64_t map_poses() const { return map_poses_; }
+  // trajectory_map.tum, complete after finish().
   const std::filesystem::path& map_trajectory_path() const { return map_path_; }
 
  private:
   std::filesystem::path out_dir_;
   std::filesystem::path map_path_;
+  std::filesystem::path live_path_;
   std::string vocabulary_path_;
   std::string loaded_map_path_;
   std::filesystem::path save_map_path_;
@@ -86,8 +90,12 @@ class LoopSession final : public PoseSink {
   std::unique_ptr<LoopWorker> worker_;
   LoopWorkerStats worker_stats_;
   std::unique_ptr<loop::MapFramePoses> map_frame_;
-  std::FILE* map_file_ = nullptr;
+  std::FILE* live_file_ = nullptr;
+  std::FILE* frames_ = nullptr;  // FrameRecords (loop_session.cpp), a temporary file
+  bool frames_failed_ = false;
+  std::uint64_t live_poses_ = 0;
   std::uint64_t map_poses_ = 0;
+  std::string write_final_map();
   std::size_t startup_bytes_ = 0;
   double spread_s_ = 0.0;
 };

@@ -99,7 +99,7 @@ eval::ReportBudget report_budget(const eval::ErrorBudget& b) {
 
 // report.html: what the run has today (features and timing per frame, the ground truth's path
 // when the dataset has one; the estimate and its error once the estimator exists).
-// Loop closure in the report: the map-frame trajectory (read back from trajectory_map.tum, aligned
+// Loop closure in the report: the final map trajectory (read back from trajectory_map.tum, aligned
 // like the estimate) and the accepted loops, times on the clock of the modes.
 void add_loops(const LoopSession& loop, const eval::EvalResult* accuracy, double t0_ns, eval::ReportData* data,
                std::ostream& err) {

@@ -35,6 +35,7 @@ Status KeyframeDatabase::reserve(std::uint32_t* slot) {
   *slot = free_[n_free_ - 1];
   KeyframeRecord& r = records_[*slot];
   r.id = kNoFrame;
+  r.odometry_epoch = kMapEpoch;
   r.loops = 0;
   r.indexed = false;
   r.features.clear();

@@ -30,10 +30,15 @@ struct LoopFeature {
   Eigen::Vector3f bearing_c0 = Eigen::Vector3f::UnitZ();  // unit, the left camera's observation
 };
 
+// KeyframeRecord::odometry_epoch of a keyframe read from a map file (no odometry of this run).
+inline constexpr std::uint32_t kMapEpoch = 0xFFFFFFFFu;
+
 struct KeyframeRecord {
   FrameId id = kNoFrame;
   std::int64_t t_ns = 0;
   std::uint32_t session = 0;     // odometry frames differ across sessions (estimator resets)
+  // The estimator's odometry epoch of this run's keyframes; kMapEpoch for those read from a map.
+  std::uint32_t odometry_epoch = kMapEpoch;
   bool placed = false;           // its session is placed in the map (T_map_b is meaningful)
   Eigen::Isometry3d T_odom_b = Eigen::Isometry3d::Identity();  // as the odometry had it
   Eigen::Isometry3d T_map_b = Eigen::Isometry3d::Identity();   // after the last pose-graph solve

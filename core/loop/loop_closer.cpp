@@ -257,6 +257,7 @@ void LoopCloser::build_record(const LoopKeyframe& k, std::uint32_t slot) {
   r.id = k.id;
   r.t_ns = k.t_ns;
   r.session = session_;
+  r.odometry_epoch = k.odometry_epoch;
   r.placed = session_placed_;
   r.T_odom_b = k.T_odom_b;
   r.T_map_b = T_map_odom_ * k.T_odom_b;

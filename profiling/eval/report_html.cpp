@@ -353,7 +353,7 @@ std::string render_report_html(const ReportData& d) {
     if (!d.groundtruth.p_w_m.empty()) s.push_back({component(d.groundtruth, 0), component(d.groundtruth, 1), kColorGt, "ground truth", false});
     if (!d.estimate.p_w_m.empty()) s.push_back({component(d.estimate, 0), component(d.estimate, 1), kColorEst, "estimate", false});
     if (!d.map_estimate.p_w_m.empty()) {
-      s.push_back({component(d.map_estimate, 0), component(d.map_estimate, 1), kPalette[0], "map frame (loops)", false});
+      s.push_back({component(d.map_estimate, 0), component(d.map_estimate, 1), kPalette[0], "final map (loops)", false});
     }
     if (!d.loops.empty()) s.push_back(loop_pairs(d.loops));
     o << line_chart("Top view (x-y)", "x [m]", "y [m]", s, true);

@@ -70,7 +70,7 @@ std::string micro_vocabulary(const std::string& dir) {
 
 }  // namespace
 
-TEST_CASE("replay --vocabulary: the map trajectory equals the odometry until a loop moves it", "[cli][loop]") {
+TEST_CASE("replay --vocabulary: both map trajectories equal the odometry until a loop moves them", "[cli][loop]") {
   const std::string dir = test::make_temp_dir("loop_session");
   const std::string voc = micro_vocabulary(dir);
   std::string out, err;
@@ -86,13 +86,21 @@ TEST_CASE("replay --vocabulary: the map trajectory equals the odometry until a l
   CHECK(loop_stat(stats, "accepted") == 0);
   CHECK(loop_stat(stats, "peak_bytes") > 1e6);
   const auto odom = read_tum(dir + "/run/trajectory.tum");
+  const auto live = read_tum(dir + "/run/trajectory_map_live.tum");
   const auto map = read_tum(dir + "/run/trajectory_map.tum");
-  // Map poses start once the first levelled keyframe left the window, then every frame has one.
-  REQUIRE(map.size() >= 40);
-  CHECK(map.size() < odom.size());
-  for (const auto& [t, pose] : map) {
-    REQUIRE(odom.count(t) == 1);
-    for (int i = 0; i < 7; ++i) CHECK(std::abs(pose[i] - odom.at(t)[i]) < 1e-6);
+  // As flown, map poses start once the first levelled keyframe left the window, then every frame
+  // has one. The final map also places the frames of that odometry frame flown before it.
+  REQUIRE(live.size() >= 40);
+  CHECK(live.size() < odom.size());
+  CHECK(map.size() >= live.size());
+  CHECK(map.size() <= odom.size());
+  CHECK(loop_stat(stats, "map_poses") == static_cast<double>(map.size()));
+  CHECK(loop_stat(stats, "map_live_poses") == static_cast<double>(live.size()));
+  for (const auto* poses : {&live, &map}) {
+    for (const auto& [t, pose] : *poses) {
+      REQUIRE(odom.count(t) == 1);
+      for (int i = 0; i < 7; ++i) CHECK(std::abs(pose[i] - odom.at(t)[i]) < 1e-6);
+    }
   }
   CHECK(slurp(dir + "/run/loops.csv").rfind("# t_query_s", 0) == 0);
 }

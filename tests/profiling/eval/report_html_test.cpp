@@ -89,12 +89,12 @@ TEST_CASE("report.html draws the loops on the top view and lists them", "[eval][
   ReportData d = example_report();
   const std::string without = render_report_html(d);
   CHECK(without.find("<h2>Loops</h2>") == std::string::npos);
-  CHECK(without.find("map frame (loops)") == std::string::npos);
+  CHECK(without.find("final map (loops)") == std::string::npos);
   d.map_estimate = d.groundtruth;
   d.loops.push_back({12.5, Eigen::Vector3d(2.0, 0.0, 1.0), Eigen::Vector3d(1.9, 0.1, 1.0), 87, 0.0123, 0.21, false});
   d.loops.push_back({18.0, Eigen::Vector3d(-1.0, 1.0, 1.0), Eigen::Vector3d(-1.1, 1.0, 1.0), 40, 0.3, 2.5, true});
   const std::string html = render_report_html(d);
-  for (const char* s : {"map frame (loops)", "loops (2)", "<h2>Loops</h2>", "<td>12.50</td>", "<td>87</td>",
+  for (const char* s : {"final map (loops)", "loops (2)", "<h2>Loops</h2>", "<td>12.50</td>", "<td>87</td>",
                         "<td>0.0123</td>", "<td>relocalization</td>", "<td>0.141</td>"}) {
     INFO(s);
     CHECK(html.find(s) != std::string::npos);
