@@ -25,8 +25,10 @@ std::uint32_t hash_calibration(const RigCalibration& rig) {
     const double d[] = {c.fx, c.fy, c.cx, c.cy, c.distortion[0], c.distortion[1], c.distortion[2], c.distortion[3]};
     int n = 3;
     for (double x : d) v[n++] = std::llround(x * 1e6);
+    // The camera in the IMU frame (the keyframes' body): exactly T_b_c while T_b_i is identity.
+    const Eigen::Matrix4d T_i_c = (rig.imu.T_b_i.inverse() * c.T_b_c).matrix();
     for (int r = 0; r < 3; ++r)
-      for (int k = 0; k < 4; ++k) v[n++] = std::llround(c.T_b_c.matrix()(r, k) * 1e6);
+      for (int k = 0; k < 4; ++k) v[n++] = std::llround(T_i_c(r, k) * 1e6);
     crc = crc32(reinterpret_cast<const std::uint8_t*>(v), sizeof(std::int64_t) * static_cast<std::size_t>(n), crc);
   }
   return crc;
@@ -93,9 +95,10 @@ void LoopOptions::validate() const {
 LoopCloser::LoopCloser(const LoopOptions& options, const RigCalibration& rig, const Vocabulary& vocabulary)
     : options_((options.validate(), options)),
       vocabulary_(vocabulary),
-      T_b_c0_(rig.cam[0].T_b_c),
+      // The keyframes' poses and points are the estimator's, whose body is the IMU.
+      T_b_c0_(rig.imu.T_b_i.inverse() * rig.cam[0].T_b_c),
       describer_(capacity::kMaxImageWidth, capacity::kMaxImageHeight),
-      verifier_(options.verifier, rig.cam[0].T_b_c),
+      verifier_(options.verifier, T_b_c0_),
       db_(new KeyframeDatabase(options.protected_recent)),
       index_(new InvertedIndex(vocabulary.nodes())),
       graph_(new PoseGraph4Dof()),

@@ -213,7 +213,7 @@ class LoopCloser final : public KeyframeSink, public KeyframeImageSink, public M
   void load_map(const std::vector<std::uint8_t>& bytes, const std::string& source);
   std::size_t loaded_keyframes() const { return loaded_keyframes_; }
   // CRC-32 of the calibration values that descriptors and points depend on (both cameras'
-  // model, size, intrinsics, distortion and extrinsics at 1e-6).
+  // model, size, intrinsics, distortion and pose in the IMU frame at 1e-6).
   std::uint32_t calibration_hash() const { return calibration_hash_; }
   std::size_t footprint_bytes() const;
 

@@ -42,8 +42,11 @@ Eigen::Isometry3d camera_in_body() {
   return T_b_c0;
 }
 
-RigCalibration make_rig() {
+// T_b_i: the IMU in the rig's body frame. The estimator's body (the keyframes') is the IMU, so the
+// scenario's camera_in_body() is the camera in the IMU frame whatever T_b_i is.
+RigCalibration make_rig(const Eigen::Isometry3d& T_b_i = Eigen::Isometry3d::Identity()) {
   RigCalibration rig;
+  rig.imu.T_b_i = T_b_i;
   for (CameraCalibration& cam : rig.cam) {
     cam.model = CameraModel::kPinholeRadTan;
     cam.width = kWidthPx;
@@ -53,9 +56,11 @@ RigCalibration make_rig() {
     cam.cx = kCxPx;
     cam.cy = kCyPx;
     cam.distortion = {0.0, 0.0, 0.0, 0.0};
-    cam.T_b_c = camera_in_body();
+    cam.T_b_c = T_b_i * camera_in_body();
   }
-  rig.cam[1].T_b_c.translation().y() -= 0.095;  // a D455-like baseline (unused by the closer)
+  Eigen::Isometry3d T_i_c1 = camera_in_body();
+  T_i_c1.translation().y() -= 0.095;  // a D455-like baseline (unused by the closer)
+  rig.cam[1].T_b_c = T_b_i * T_i_c1;
   return rig;
 }
 
@@ -448,6 +453,31 @@ TEST_CASE("LoopCloser: a circle back to the first wall closes a loop and the map
   // 60 edges (0.062 deg each), although the loops measured it to 0.02-0.04 deg.
   CHECK(error.translation().norm() < 0.05);
   CHECK(angle_deg(error.linear()) < 0.5 * angle_deg(planted.linear()));
+}
+
+// The keyframes are the estimator's, whose body is the IMU: with the IMU away from the rig's body
+// origin the closer must see the camera in the IMU frame (T_b_i^-1 * T_b_c), not T_b_c. Taking
+// T_b_c for it (before) put every stereo point 0.3 m and 90 deg off and closed no loop here.
+TEST_CASE("LoopCloser: the camera is placed in the IMU frame when the rig's body is not the IMU", "[loop]") {
+  Eigen::Isometry3d T_b_i = Eigen::Isometry3d::Identity();
+  T_b_i.linear() = Eigen::AngleAxisd(0.5 * kPi, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  T_b_i.translation() = Eigen::Vector3d(0.1, -0.2, 0.15);
+  const auto flight = circle_flight(true);
+  LoopCloser closer(LoopOptions{}, make_rig(T_b_i), vocabulary());
+  LoopCloser same_camera(LoopOptions{}, make_rig(), vocabulary());
+  // The same camera in the IMU frame: the same calibration for the map files.
+  CHECK(closer.calibration_hash() == same_camera.calibration_hash());
+  for (const auto& k : flight->keyframes) feed(&closer, *k);
+  INFO("rejected: " << rejections(closer.stats()));
+  REQUIRE(closer.stats().accepted >= 1);
+  for (std::size_t e = 0; e < closer.num_events(); ++e) {
+    const LoopEvent& ev = closer.event(e);
+    const int q = static_cast<int>(ev.query) - 100, c = static_cast<int>(ev.loop) - 100;
+    REQUIRE((c == 0 || c == 1));
+    const Eigen::Isometry3d T_c_q_true = flight->truth[c].inverse() * flight->truth[q];
+    CHECK((ev.T_loop_query.translation() - T_c_q_true.translation()).norm() < 0.02);  // m
+    CHECK(angle_deg(T_c_q_true.linear().transpose() * ev.T_loop_query.linear()) < 0.3);
+  }
 }
 
 TEST_CASE("LoopCloser: after a blackout the first loop puts the map where the images say (blind_sigma_scale)", "[loop]") {
