@@ -253,9 +253,7 @@ int run_live(const std::vector<std::string>& argv, std::ostream& out, std::ostre
   // Live: a frame never waits for loop closure (a keyframe the loop thread cannot take is counted).
   std::unique_ptr<LoopSession> loop = loop_from_args(args, config, out_dir, LoopThreading{false, QueueFull::kDrop});
   if (loop != nullptr) loop->attach(pipeline);
-  if (mavlink != nullptr) {
-    pipeline.set_pose_consumer(loop != nullptr ? loop->map_frame(&mavlink->output()) : &mavlink->output());
-  }
+  attach_mavlink(mavlink.get(), loop.get(), pipeline);
 
   const ProducerResult producer = run_threads(*src, *bridge, pipeline, seconds);
   const bool poses_ok = close_pose_files(&files, pipeline);
@@ -265,11 +263,7 @@ int run_live(const std::vector<std::string>& argv, std::ostream& out, std::ostre
   w.value("version", version_string());
   w.value("source", source);
   pipeline.write_stats(w);
-  if (mavlink != nullptr) {
-    pipeline.set_pose_consumer(nullptr);
-    mavlink->output().write_stats(w);
-    if (!mavlink->close()) err << "warning: " << (out_dir / "mavlink_sent.csv").string() << ": write failed\n";
-  }
+  finish_mavlink(mavlink.get(), pipeline, w, out_dir, err);
   // An output that could not be written: exit 1 after the rest.
   const bool failed_write = !finish_loop(loop.get(), pipeline, w, err);
   w.begin_object("bridge")

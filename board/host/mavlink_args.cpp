@@ -2,6 +2,8 @@
 
 #include <stdexcept>
 
+#include "board/host/loop_session.hpp"
+#include "board/host/replay_pipeline.hpp"
 #include "hal/link/link_spec.hpp"
 
 namespace ums::cli {
@@ -65,6 +67,19 @@ std::unique_ptr<MavlinkSession> mavlink_from_args(const Args& args, const AppCon
   }
   std::filesystem::create_directories(out_dir);
   return std::make_unique<MavlinkSession>(std::move(link), options, out_dir / "mavlink_sent.csv");
+}
+
+void attach_mavlink(MavlinkSession* mavlink, LoopSession* loop, ReplayPipeline& pipeline) {
+  if (mavlink == nullptr) return;
+  pipeline.set_pose_consumer(loop != nullptr ? loop->map_frame(&mavlink->output()) : &mavlink->output());
+}
+
+void finish_mavlink(MavlinkSession* mavlink, ReplayPipeline& pipeline, JsonWriter& w,
+                    const std::filesystem::path& out_dir, std::ostream& err) {
+  if (mavlink == nullptr) return;
+  pipeline.set_pose_consumer(nullptr);
+  mavlink->output().write_stats(w);
+  if (!mavlink->close()) err << "warning: " << (out_dir / "mavlink_sent.csv").string() << ": write failed\n";
 }
 
 }  // namespace ums::cli

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <ostream>
 #include <set>
 #include <string>
 
@@ -13,6 +14,7 @@
 #include "board/host/cli_args.hpp"
 #include "board/host/mavlink_output.hpp"
 #include "hal/link/byte_link.hpp"
+#include "profiling/json_writer.hpp"
 
 namespace ums::cli {
 
@@ -41,5 +43,16 @@ class MavlinkSession {
 // the link cannot be opened.
 std::unique_ptr<MavlinkSession> mavlink_from_args(const Args& args, const AppConfig& config,
                                                   const std::filesystem::path& out_dir);
+
+class LoopSession;
+class ReplayPipeline;
+
+// The pipeline's poses to the link (nothing without one); with loop closure in the map frame, a
+// reset (or a ramp) at each correction.
+void attach_mavlink(MavlinkSession* mavlink, LoopSession* loop, ReplayPipeline& pipeline);
+// At the end of a run: detaches the link, writes stats.json's "mavlink" and closes the log (a
+// warning on err when writing it failed). Nothing without a link.
+void finish_mavlink(MavlinkSession* mavlink, ReplayPipeline& pipeline, JsonWriter& w,
+                    const std::filesystem::path& out_dir, std::ostream& err);
 
 }  // namespace ums::cli

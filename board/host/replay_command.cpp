@@ -392,10 +392,7 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
   std::unique_ptr<LoopSession> loop =
       pipeline.has_estimator() ? loop_from_args(args, config, out_dir, loop_threading) : nullptr;
   if (loop != nullptr) loop->attach(pipeline);
-  // With loop closure the flight controller gets the map frame (and a reset at each correction).
-  if (mavlink != nullptr) {
-    pipeline.set_pose_consumer(loop != nullptr ? loop->map_frame(&mavlink->output()) : &mavlink->output());
-  }
+  attach_mavlink(mavlink.get(), loop.get(), pipeline);
 
   const StreamResult run = stream(reader, pipeline, args.has("realtime"), args.has("quiet"), err);
   const hal::EurocReaderCounters& counters = reader.counters();
@@ -410,11 +407,7 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
   w.value("wall_s", run.wall_s, 4);
   w.value("peak_rss_kb", static_cast<std::int64_t>(run.peak_rss_kb));
   pipeline.write_stats(w);
-  if (mavlink != nullptr) {
-    pipeline.set_pose_consumer(nullptr);
-    mavlink->output().write_stats(w);
-    if (!mavlink->close()) err << "warning: " << (out_dir / "mavlink_sent.csv").string() << ": write failed\n";
-  }
+  finish_mavlink(mavlink.get(), pipeline, w, out_dir, err);
   // An output that could not be written: exit 1 after the rest.
   const bool failed_write = !finish_loop(loop.get(), pipeline, w, err);
   write_accuracy_json(accuracy, w);
