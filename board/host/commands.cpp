@@ -31,12 +31,17 @@ usage: umsvins <command> [options]
       Every ODOMETRY is logged in DIR/mavlink_sent.csv. Use --realtime to feed a live receiver.
   simulate [--trajectory F] [--scenario NAME] [--seed N] [--start S] [--duration S]
            [--camera euroc|d455] [--max-frames N] [--exposure-change] [--blackout-s S]
-           [--style procedural|photo] [--texture-dataset DIR] [--exposure-ms MS] --out DIR
+           [--style procedural|photo] [--texture-dataset DIR] [--exposure-ms MS]
+           [--td-ms MS] [--extrinsic-error-deg D] [--extrinsic-error-mm MM] --out DIR
       Write a synthetic EuRoC-layout stereo+IMU dataset (scenarios: nominal, standstill-start,
       uniform-start, dark-start, textureless, impulses, right-dropout, blackout). --style photo: a second,
       independent simulator (textures cut from the real images of the EuRoC dataset DIR, which it
       requires; larger room, uneven light, vignetting, motion blur over --exposure-ms, default 4;
       SE(3) trajectory, decimated IMU with real-sized biases). Default: procedural.
+      --camera d455: 848x480 at 30 Hz, gyro 200 Hz, accelerometer 100 Hz interpolated onto the
+      gyro's stamps (EuRoC: 752x480 at 20 Hz, IMU 200 Hz). Planted errors the written calibration
+      does not know: --td-ms (images stamped td early: t_imu = t_cam + td), --extrinsic-error-deg
+      and -mm (both cameras' T_b_c off by a rotation and a shift drawn from the seed).
   eval --estimate F --groundtruth F [--align se3|sim3|posyaw] [--cam0-sensor-yaml F]
        [--stats DIR/stats.json] [--json F]
       Print ATE, RPE and the error budget (ATE per mode with --stats, scale, yaw and position

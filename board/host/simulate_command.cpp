@@ -10,7 +10,7 @@ namespace ums::cli {
 int run_simulate(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
   const Args args("simulate", argv, {"exposure-change", "quiet"},
                   {"trajectory", "scenario", "seed", "out", "duration", "start", "camera", "max-frames", "style",
-                   "texture-dataset", "exposure-ms", "blackout-s"});
+                   "texture-dataset", "exposure-ms", "blackout-s", "td-ms", "extrinsic-error-deg", "extrinsic-error-mm"});
   args.require_positionals(0, "");
   sim::SimOptions options;
   options.out_dir = args.require("out");
@@ -25,6 +25,7 @@ int run_simulate(const std::vector<std::string>& argv, std::ostream& out, std::o
   if (!sim::parse_camera_preset(camera, &options.camera_preset)) {
     throw UsageError("umsvins simulate: unknown --camera '" + camera + "' (euroc, d455)");
   }
+  sim::apply_timing_preset(options.camera_preset, &options);
   const long seed = args.get_long("seed", 1);
   if (seed < 0) throw UsageError("umsvins simulate: --seed must be >= 0");
   options.seed = static_cast<std::uint64_t>(seed);
@@ -39,6 +40,9 @@ int run_simulate(const std::vector<std::string>& argv, std::ostream& out, std::o
   options.texture_dataset = args.get_or("texture-dataset", "");
   options.exposure.exposure_ms = args.get_double("exposure-ms", options.exposure.exposure_ms);
   options.blackout_s = args.get_double("blackout-s", options.blackout_s);
+  options.td_s = args.get_double("td-ms", 0.0) * 1e-3;
+  options.extrinsic_error_deg = args.get_double("extrinsic-error-deg", 0.0);
+  options.extrinsic_error_m = args.get_double("extrinsic-error-mm", 0.0) * 1e-3;
   if (options.style == sim::SimStyle::kPhoto && options.texture_dataset.empty()) {
     // A failure (exit 1), not a usage slip: the photo style cannot run without real images.
     err << "umsvins simulate: --style photo needs --texture-dataset DIR (an EuRoC dataset folder holding "

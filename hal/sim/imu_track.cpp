@@ -27,4 +27,21 @@ void add_impulses(const std::vector<double>& yaw_rate, double imu_rate_hz, doubl
   std::sort(track->impulse_index.begin(), track->impulse_index.end());
 }
 
+void interpolate_accel(int every, ImuTrack* track) {
+  if (every <= 1) return;
+  std::vector<ImuSample>& m = track->samples;
+  const std::size_t n = m.size();
+  for (std::size_t a = 0; a < n; a += static_cast<std::size_t>(every)) {
+    const std::size_t b = a + static_cast<std::size_t>(every);
+    for (std::size_t i = a + 1; i < std::min(b, n); ++i) {
+      if (b >= n) {
+        m[i].accel_m_s2 = m[a].accel_m_s2;
+        continue;
+      }
+      const double f = static_cast<double>(m[i].t_ns - m[a].t_ns) / static_cast<double>(m[b].t_ns - m[a].t_ns);
+      m[i].accel_m_s2 = (1.0 - f) * m[a].accel_m_s2 + f * m[b].accel_m_s2;
+    }
+  }
+}
+
 }  // namespace ums::sim

@@ -25,4 +25,9 @@ struct ImuTrack {
 void add_impulses(const std::vector<double>& yaw_rate_rad_s, double imu_rate_hz, double span_s,
                   std::mt19937_64& rng, std::normal_distribution<double>& n01, ImuTrack* track);
 
+// The accelerometer kept on every `every`-th sample only and linearly interpolated onto the
+// samples between (a slower accelerometer fused onto the gyro's stamps); the samples after the
+// last kept one hold it. every <= 1: unchanged.
+void interpolate_accel(int every, ImuTrack* track);
+
 }  // namespace ums::sim

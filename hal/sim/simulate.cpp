@@ -224,6 +224,15 @@ bool SimOptions::validate(std::string* error) const {
   if (!(start_s >= 0.0)) return bad("simulate: start_s must be >= 0");
   if (!(blackout_s > 0.0 && blackout_s <= 120.0)) return bad("simulate: --blackout-s must be in (0, 120] s");
   if (!(initial_gyro_bias_sigma_rad_s >= 0.0 && initial_accel_bias_sigma_m_s2 >= 0.0)) return bad("simulate: bias sigmas must be >= 0");
+  if (accel_rate_hz != 0.0) {
+    const double every = imu_rate_hz / accel_rate_hz;
+    if (!(accel_rate_hz > 0.0 && every >= 1.0 && std::abs(every - std::round(every)) < 1e-9)) {
+      return bad("simulate: accel_rate_hz must divide the IMU rate (" + std::to_string(imu_rate_hz) + " Hz)");
+    }
+  }
+  if (!(std::abs(td_s) <= 0.1)) return bad("simulate: --td-ms must be within +-100 ms");
+  if (!(extrinsic_error_deg >= 0.0 && extrinsic_error_deg <= 10.0)) return bad("simulate: --extrinsic-error-deg must be in [0, 10]");
+  if (!(extrinsic_error_m >= 0.0 && extrinsic_error_m <= 0.1)) return bad("simulate: --extrinsic-error-mm must be in [0, 100]");
   if (style == SimStyle::kPhoto) {
     if (texture_dataset.empty()) {
       return bad("simulate: style photo needs texture_dataset (--texture-dataset DIR: an EuRoC dataset folder holding mav0/)");
@@ -332,6 +341,14 @@ SimTrajectory make_trajectory(const SimOptions& o, const RigCalibration& rig) {
   return tr;
 }
 
+namespace {
+
+int accel_every(const SimOptions& o) {
+  return o.accel_rate_hz > 0.0 ? static_cast<int>(std::lround(o.imu_rate_hz / o.accel_rate_hz)) : 1;
+}
+
+}  // namespace
+
 ImuTrack generate_imu(const SimTrajectory& tr, const ImuCalibration& imu, const SimOptions& o) {
   if (tr.style == SimStyle::kPhoto) {
     DecimatedImuOptions d;
@@ -342,7 +359,9 @@ ImuTrack generate_imu(const SimTrajectory& tr, const ImuCalibration& imu, const 
     d.accel_bias_max_m_s2 = o.initial_accel_bias_max_m_s2;
     d.impulses = o.scenario == Scenario::kImpulses;
     d.seed = o.seed;
-    return generate_decimated_imu(tr.se3, tr.t_begin_ns, tr.t_end_ns, imu, d);
+    ImuTrack track = generate_decimated_imu(tr.se3, tr.t_begin_ns, tr.t_end_ns, imu, d);
+    interpolate_accel(accel_every(o), &track);
+    return track;
   }
   ImuTrack track;
   std::mt19937_64 rng(o.seed * 0x9E3779B97F4A7C15ULL + 17);
@@ -351,7 +370,11 @@ ImuTrack generate_imu(const SimTrajectory& tr, const ImuCalibration& imu, const 
   const double dt = 1.0 / o.imu_rate_hz;
   const std::int64_t dt_ns = static_cast<std::int64_t>(std::llround(1e9 / o.imu_rate_hz));
   // Discrete white noise std = density * sqrt(rate); bias random walk step = rw * sqrt(dt).
-  const double sg = imu.gyro_noise_density / std::sqrt(dt), sa = imu.accel_noise_density / std::sqrt(dt);
+  // A slower accelerometer (accel_rate_hz) averages over its longer period: less white noise per
+  // sample, then interpolated onto the gyro's stamps below.
+  const double sg = imu.gyro_noise_density / std::sqrt(dt);
+  const double sa = o.accel_rate_hz > 0.0 && o.accel_rate_hz < o.imu_rate_hz ? imu.accel_noise_density * std::sqrt(o.accel_rate_hz)
+                                                                             : imu.accel_noise_density / std::sqrt(dt);
   const double rg = imu.gyro_random_walk * std::sqrt(dt), ra = imu.accel_random_walk * std::sqrt(dt);
   Eigen::Vector3d bg = o.initial_gyro_bias_sigma_rad_s * nvec();
   Eigen::Vector3d ba = o.initial_accel_bias_sigma_m_s2 * nvec();
@@ -376,10 +399,33 @@ ImuTrack generate_imu(const SimTrajectory& tr, const ImuCalibration& imu, const 
     bg += rg * nvec();
     ba += ra * nvec();
   }
+  interpolate_accel(accel_every(o), &track);
   if (o.scenario == Scenario::kImpulses) {
     add_impulses(yaw_rate, o.imu_rate_hz, static_cast<double>(tr.t_end_ns - tr.t_begin_ns) * 1e-9, rng, n01, &track);
   }
   return track;
+}
+
+void apply_timing_preset(CameraPreset preset, SimOptions* o) {
+  const bool d455 = preset == CameraPreset::kD455;
+  o->camera_rate_hz = d455 ? 30.0 : 20.0;
+  o->imu_rate_hz = 200.0;
+  o->accel_rate_hz = d455 ? 100.0 : 0.0;
+}
+
+RigCalibration written_calibration(const RigCalibration& truth, const SimOptions& o) {
+  RigCalibration rig = truth;
+  if (o.extrinsic_error_deg == 0.0 && o.extrinsic_error_m == 0.0) return rig;
+  std::mt19937_64 rng(o.seed * 0x2545F4914F6CDD1DULL + 29);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  const Eigen::Vector3d axis = Eigen::Vector3d(n01(rng), n01(rng), n01(rng)).normalized();
+  const Eigen::Vector3d dir = Eigen::Vector3d(n01(rng), n01(rng), n01(rng)).normalized();
+  // The same body-side change for both cameras: T_b_c' = E * T_b_c keeps T_c0_c1.
+  Eigen::Isometry3d E = Eigen::Isometry3d::Identity();
+  E.linear() = Eigen::AngleAxisd(o.extrinsic_error_deg * M_PI / 180.0, axis).toRotationMatrix();
+  E.translation() = o.extrinsic_error_m * dir;
+  for (CameraCalibration& c : rig.cam) c.T_b_c = E * c.T_b_c;
+  return rig;
 }
 
 namespace {
@@ -447,8 +493,12 @@ BlackoutSpan blackout_span(const SimOptions& o, const SimTrajectory& tr) {
 
 void write_events(const SimOptions& o, const SimTrajectory& tr, const ImuTrack& imu, double mid_s) {
   std::ofstream ev(o.out_dir + "/sim_events.csv");
-  ev << "#scenario " << scenario_name(o.scenario) << ", seed " << o.seed << ", style " << style_name(o.style)
-     << "\n#t_ns,event\n";
+  ev << "#scenario " << scenario_name(o.scenario) << ", seed " << o.seed << ", style " << style_name(o.style) << "\n";
+  if (o.td_s != 0.0 || o.extrinsic_error_deg != 0.0 || o.extrinsic_error_m != 0.0 || accel_every(o) > 1) {
+    ev << "#sensors: td_s " << o.td_s << ", extrinsic error " << o.extrinsic_error_deg << " deg " << o.extrinsic_error_m
+       << " m (not in the calibration written), accelerometer " << o.imu_rate_hz / accel_every(o) << " Hz\n";
+  }
+  ev << "#t_ns,event\n";
   ev << tr.t_begin_ns << ",begin\n" << tr.flight_begin_ns << ",flight_begin\n";
   for (std::size_t i : imu.impulse_index) ev << imu.samples[i].t_ns << ",imu_impulse\n";
   if (o.scenario == Scenario::kDarkStart) ev << tr.t_begin_ns + 3'000'000'000LL << ",dark_end\n";
@@ -492,13 +542,14 @@ int simulate(const SimOptions& o, std::string* error, const ProgressCallback& pr
 
     std::filesystem::create_directories(o.out_dir);
     hal::EurocWriter writer;
-    writer.open(o.out_dir, rig, true);
+    writer.open(o.out_dir, written_calibration(rig, o), true);
     write_imu(writer, imu);
     const double mid_s = 0.5 * static_cast<double>(tr.t_end_ns - tr.t_begin_ns) * 1e-9;
     const BlackoutSpan blackout = blackout_span(o, tr);
     std::vector<std::uint8_t> left(static_cast<std::size_t>(rig.cam[0].width) * rig.cam[0].height);
     std::vector<std::uint8_t> right(static_cast<std::size_t>(rig.cam[1].width) * rig.cam[1].height);
     SimStats counts;
+    const std::int64_t td_ns = std::llround(o.td_s * 1e9);
     for (int k = 0; k < total; ++k) {
       const std::int64_t t = tr.t_begin_ns + k * frame_dt_ns;
       const double ts = static_cast<double>(t - tr.t_begin_ns) * 1e-9;
@@ -519,7 +570,7 @@ int simulate(const SimOptions& o, std::string* error, const ProgressCallback& pr
         std::fill(right.begin(), right.end(), 0);
       }
       StereoFrame f;
-      f.t_ns = t;
+      f.t_ns = t - td_ns;  // the camera's clock
       f.seq = static_cast<std::uint64_t>(k);
       f.left = ImageView{left.data(), rig.cam[0].width, rig.cam[0].height, rig.cam[0].width};
       f.right = ImageView{right.data(), rig.cam[1].width, rig.cam[1].height, rig.cam[1].width};

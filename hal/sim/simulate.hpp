@@ -80,6 +80,18 @@ struct SimOptions {
   bool exposure_change = false;       // slow exposure oscillation, +-35 % over 8 s
   double blackout_s = 2.0;            // s, kBlackout: both cameras black this long, centred mid-flight
   int max_frames = -1;                // render only the first N pairs (tests); < 0: all
+  // Real sensors (issue 18), all off by default:
+  // The accelerometer at this rate (a divisor of imu_rate_hz), linearly interpolated onto the
+  // gyro's stamps, as hal/d455 fuses a D455's 100 Hz accel with its 200 Hz gyro; 0: imu_rate_hz.
+  double accel_rate_hz = 0.0;
+  // s, a camera-IMU time offset: images taken at IMU time t are stamped t - td_s (t_imu = t_cam +
+  // td_s, the calibration's convention). The calibration written says 0, as a user would believe.
+  double td_s = 0.0;
+  // The calibration written has both cameras' T_b_c off the rendering's by a rotation of this
+  // many degrees about an axis and a shift of this many metres in a direction, both drawn from the
+  // seed: the rig mounted off against the IMU, the stereo baseline exact.
+  double extrinsic_error_deg = 0.0;
+  double extrinsic_error_m = 0.0;
   WorldOptions world;                 // procedural style's world
   RenderOptions render;
   SimStyle style = SimStyle::kProcedural;
@@ -94,6 +106,10 @@ struct SimOptions {
   PhotoLensOptions lens;              // vignetting per camera, shot noise
   bool validate(std::string* error) const;
 };
+
+// A preset's sensor timing: EuRoC 20 Hz cameras, 200 Hz IMU; D455 30 Hz cameras, 200 Hz gyro,
+// 100 Hz accelerometer (SimOptions::accel_rate_hz).
+void apply_timing_preset(CameraPreset preset, SimOptions* options);
 
 // The continuous body trajectory of a run and its time span [t_begin_ns, t_end_ns]. Camera
 // poses and the IMU both come from it (spline for the procedural style, se3 for the photo style).
@@ -111,6 +127,9 @@ SimTrajectory make_trajectory(const SimOptions& options, const RigCalibration& r
 
 // The style's IMU: analytic derivatives (procedural) or generate_decimated_imu (photo).
 ImuTrack generate_imu(const SimTrajectory& trajectory, const ImuCalibration& imu, const SimOptions& options);
+// The calibration a run writes: `truth` with SimOptions' planted extrinsic error (identical to
+// it without one).
+RigCalibration written_calibration(const RigCalibration& truth, const SimOptions& options);
 
 using ProgressCallback = std::function<void(int frames_done, int frames_total)>;
 

@@ -544,3 +544,114 @@ TEST_CASE("photo style: frames and IMU from the same trajectory", "[sim][photo][
   CHECK(median(pos_err) < 5e-4);
   CHECK(median(rot_err) < 0.005);
 }
+
+// Real sensors (issue 18): a planted time offset moves the image stamps and nothing else; a
+// planted extrinsic error is in the calibration written, not in the images; the D455 timing
+// preset has a 100 Hz accelerometer interpolated onto the 200 Hz gyro.
+namespace {
+
+std::vector<std::string> sorted_names(const std::string& dir) {
+  std::vector<std::string> names;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) names.push_back(e.path().filename().string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+SimOptions small_run(const std::string& out_dir) {
+  SimOptions o;
+  o.trajectory_path = gt_file("V101");
+  o.start_s = 20.0;
+  o.duration_s = 1.0;
+  o.max_frames = 3;
+  o.world.texture_size = 256;
+  o.out_dir = out_dir;
+  return o;
+}
+
+}  // namespace
+
+TEST_CASE("planted time offset: images stamped td early (t_imu = t_cam + td), the same pixels", "[sim][sensors]") {
+  const std::string root = ums::test::make_temp_dir("sim_td");
+  SimOptions o = small_run(root + "/zero");
+  std::string err;
+  REQUIRE(simulate(o, &err) == 0);
+  o.out_dir = root + "/late";
+  o.td_s = 0.012;
+  REQUIRE(simulate(o, &err) == 0);
+  const auto zero = sorted_names(root + "/zero/mav0/cam0/data"), late = sorted_names(root + "/late/mav0/cam0/data");
+  REQUIRE(zero.size() == 3);
+  REQUIRE(late.size() == 3);
+  for (std::size_t k = 0; k < zero.size(); ++k) {
+    const std::int64_t t0 = std::stoll(zero[k]), t1 = std::stoll(late[k]);
+    CHECK(t0 - t1 == 12'000'000);  // ns
+    CHECK(slurp(root + "/zero/mav0/cam0/data/" + zero[k]) == slurp(root + "/late/mav0/cam0/data/" + late[k]));
+  }
+  CHECK(slurp(root + "/zero/mav0/imu0/data.csv") == slurp(root + "/late/mav0/imu0/data.csv"));
+  CHECK(slurp(root + "/late/sim_events.csv").find("#sensors: td_s 0.012,") != std::string::npos);
+  CHECK(slurp(root + "/zero/sim_events.csv").find("#sensors") == std::string::npos);
+  o.td_s = 0.2;
+  CHECK_FALSE(o.validate(&err));
+  CHECK(err.find("--td-ms") != std::string::npos);
+}
+
+TEST_CASE("planted extrinsic error: both cameras moved alike by the stated rotation and shift, baseline kept",
+          "[sim][sensors]") {
+  SimOptions o = small_run("unused");
+  o.extrinsic_error_deg = 1.0;
+  o.extrinsic_error_m = 0.01;
+  const ums::RigCalibration truth = rig_preset(CameraPreset::kD455);
+  const ums::RigCalibration written = written_calibration(truth, o);
+  for (int c = 0; c < 2; ++c) {
+    const Eigen::Isometry3d E = written.cam[c].T_b_c * truth.cam[c].T_b_c.inverse();
+    CHECK(ums::so3::angle(Eigen::Matrix3d(E.linear())) * 180.0 / M_PI == Approx(1.0).epsilon(1e-9));
+    CHECK(E.translation().norm() == Approx(0.01).epsilon(1e-9));
+  }
+  const Eigen::Isometry3d baseline_truth = truth.cam[0].T_b_c.inverse() * truth.cam[1].T_b_c;
+  const Eigen::Isometry3d baseline_written = written.cam[0].T_b_c.inverse() * written.cam[1].T_b_c;
+  CHECK((baseline_written.matrix() - baseline_truth.matrix()).norm() < 1e-12);
+  // Another seed, another direction; none planted, the truth.
+  SimOptions other = o;
+  other.seed = 2;
+  CHECK((written_calibration(truth, other).cam[0].T_b_c.matrix() - written.cam[0].T_b_c.matrix()).norm() > 1e-4);
+  CHECK((written_calibration(truth, SimOptions{}).cam[0].T_b_c.matrix() - truth.cam[0].T_b_c.matrix()).norm() == 0.0);
+}
+
+TEST_CASE("D455 timing: 30 Hz cameras, a 100 Hz accelerometer interpolated onto the 200 Hz gyro", "[sim][sensors]") {
+  SimOptions o = small_run("unused");
+  apply_timing_preset(CameraPreset::kD455, &o);
+  CHECK(o.camera_rate_hz == 30.0);
+  CHECK(o.imu_rate_hz == 200.0);
+  CHECK(o.accel_rate_hz == 100.0);
+  std::string err;
+  REQUIRE(o.validate(&err));
+  const ums::RigCalibration rig = rig_preset(CameraPreset::kD455);
+  const SimTrajectory tr = make_trajectory(o, rig);
+  const ImuTrack imu = generate_imu(tr, rig.imu, o);
+  REQUIRE(imu.samples.size() > 100);
+  // Every other sample lies midway between its neighbours; the gyro does not.
+  int gyro_midway = 0;
+  for (std::size_t i = 1; i + 1 < imu.samples.size(); i += 2) {
+    const auto& a = imu.samples[i - 1];
+    const auto& m = imu.samples[i];
+    const auto& b = imu.samples[i + 1];
+    CHECK((m.accel_m_s2 - 0.5 * (a.accel_m_s2 + b.accel_m_s2)).norm() < 1e-12);
+    gyro_midway += (m.gyro_rad_s - 0.5 * (a.gyro_rad_s + b.gyro_rad_s)).norm() < 1e-12;
+  }
+  CHECK(gyro_midway == 0);
+  // The kept samples' noise is the density at 100 Hz: 0.7 of the 200 Hz one (bias and motion removed
+  // through the ground truth's specific force).
+  double sum_sq = 0.0;
+  int n = 0;
+  const Eigen::Vector3d g_w(0.0, 0.0, -o.gravity_m_s2);
+  for (std::size_t i = 2; i + 2 < imu.samples.size(); i += 2) {
+    const SplineState s = tr.spline.evaluate(imu.samples[i].t_ns);
+    const Eigen::Vector3d f_b = s.q_w_b.conjugate() * (s.a_w_b - g_w) + imu.truth[i].accel_bias_m_s2;
+    sum_sq += (imu.samples[i].accel_m_s2 - f_b).squaredNorm();
+    n += 3;
+  }
+  const double sigma = std::sqrt(sum_sq / n);
+  CHECK(sigma == Approx(rig.imu.accel_noise_density * std::sqrt(100.0)).epsilon(0.15));
+  o.accel_rate_hz = 70.0;
+  CHECK_FALSE(o.validate(&err));
+  CHECK(err.find("accel_rate_hz") != std::string::npos);
+}
