@@ -120,6 +120,28 @@ void add_loops(const LoopSession& loop, const eval::EvalResult* accuracy, double
   }
 }
 
+// The ground truth's path in the report, streamed row by row (the ground truth of a long flight is
+// large); a plot needs no more than one point per 50 ms.
+void add_groundtruth(const hal::EurocReader& reader, double duration_s, eval::ReportData* data, std::ostream& err) {
+  try {
+    hal::EurocGroundtruthReader gt;
+    gt.open(reader.groundtruth_path());
+    const double t0_ns = static_cast<double>(reader.window_start_t_ns());
+    double last_t_s = -1.0;
+    hal::GroundTruthState state;
+    while (gt.next(&state) == hal::CsvReader::Result::kRow) {
+      const double t_s = (static_cast<double>(state.t_ns) - t0_ns) * 1e-9;
+      if (t_s < 0.0 || t_s > duration_s || t_s - last_t_s < 0.05) continue;
+      last_t_s = t_s;
+      data->groundtruth.t_s.push_back(t_s);
+      data->groundtruth.p_w_m.push_back(state.p_w_b);
+    }
+    if (gt.error()[0] != '\0') err << "warning: ground truth in the report stops at " << gt.error() << "\n";
+  } catch (const std::exception& e) {
+    err << "warning: ground truth not shown in the report: " << e.what() << "\n";
+  }
+}
+
 void write_report(const std::string& dataset, const hal::EurocReader& reader, const ReplayPipeline& pipeline,
                   const ReplaySummary& summary, const eval::EvalResult* accuracy,
                   const eval::ErrorBudget* budget, const LoopSession* loop, const std::filesystem::path& path,
@@ -159,27 +181,7 @@ void write_report(const std::string& dataset, const hal::EurocReader& reader, co
   data.stage_timings.push_back({"total", s.total_ms});
   data.end_t_s = summary.duration_s;
   if (budget != nullptr) data.budget = report_budget(*budget);
-  if (reader.has_groundtruth()) {
-    // Streamed row by row (the ground truth of a long flight is large); a plot needs no more than
-    // one point per 50 ms.
-    try {
-      hal::EurocGroundtruthReader gt;
-      gt.open(reader.groundtruth_path());
-      const double t0_ns = static_cast<double>(reader.window_start_t_ns());
-      double last_t_s = -1.0;
-      hal::GroundTruthState state;
-      while (gt.next(&state) == hal::CsvReader::Result::kRow) {
-        const double t_s = (static_cast<double>(state.t_ns) - t0_ns) * 1e-9;
-        if (t_s < 0.0 || t_s > summary.duration_s || t_s - last_t_s < 0.05) continue;
-        last_t_s = t_s;
-        data.groundtruth.t_s.push_back(t_s);
-        data.groundtruth.p_w_m.push_back(state.p_w_b);
-      }
-      if (gt.error()[0] != '\0') err << "warning: ground truth in the report stops at " << gt.error() << "\n";
-    } catch (const std::exception& e) {
-      err << "warning: ground truth not shown in the report: " << e.what() << "\n";
-    }
-  }
+  if (reader.has_groundtruth()) add_groundtruth(reader, summary.duration_s, &data, err);
   std::string error;
   if (!eval::write_report_html(data, path.string(), &error)) throw std::runtime_error(error);
 }
