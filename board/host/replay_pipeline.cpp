@@ -63,9 +63,11 @@ ReplayPipeline::ReplayPipeline(const AppConfig& config, const ReplayPipelineOpti
     : options_(options),
       times_(new StageTimes()),
       vio_(vio_options_from(options), frontend_options_from(config), estimator_options_from(config, options),
-           config.rig) {
+           config.rig),
+      rig_td_s_(config.rig.td_s) {
   fanout_.set(0, &poses_);
   vio_.set_pose_sink(&fanout_);
+  vio_.set_frame_observer(this);
   // Reserved here so that recording a frame never allocates; beyond it frames are counted only.
   for (auto* v : {&series_.t_s, &series_.frontend_ms, &series_.total_ms, &series_.backend_ms, &series_.est_t_s})
     v->reserve(options.report_frames);
@@ -95,21 +97,19 @@ void ReplayPipeline::on_imu(const ImuSample& sample) {
 void ReplayPipeline::on_stereo(const StereoFrame& frame) {
   const bool steady = vio_.counters().frames >= options_.steady_state_from_frame;
   AllocScope allocs;
-  const auto frame_start = std::chrono::steady_clock::now();
-  {
-    ScopedStageTimer total(times_, Stage::kTotal);
-    const auto start = std::chrono::steady_clock::now();
-    const double cpu_start_s = thread_cpu_s();
-    note_time(frame.t_ns);
-    vio_.on_stereo(frame);
-    record_stage_times(vio_.last_frame());
-    summary_.processing_s +=
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    summary_.processing_cpu_s += thread_cpu_s() - cpu_start_s;
-  }
-  record_series(frame,
-                std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - frame_start).count());
+  const auto start = std::chrono::steady_clock::now();
+  const double cpu_start_s = thread_cpu_s();
+  note_time(frame.t_ns);
+  vio_.on_stereo(frame);
+  summary_.processing_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  summary_.processing_cpu_s += thread_cpu_s() - cpu_start_s;
   if (steady) summary_.heap_allocs_steady_state += allocs.allocations();
+}
+
+void ReplayPipeline::on_frame_done(const VioFrameRecord& record, const StereoFrame& frame) {
+  times_->record(Stage::kTotal, record.total_ms);
+  record_stage_times(record);
+  record_series(record, frame);
 }
 
 void ReplayPipeline::record_stage_times(const VioFrameRecord& frame) {
@@ -134,8 +134,8 @@ void ReplayPipeline::record_stage_times(const VioFrameRecord& frame) {
   times_->record(Stage::kBackend, timing.backend_ms);
 }
 
-void ReplayPipeline::record_series(const StereoFrame& frame, double total_ms) {
-  const VioFrameRecord& rec = vio_.last_frame();
+void ReplayPipeline::record_series(const VioFrameRecord& rec, const StereoFrame& frame) {
+  const double total_ms = rec.total_ms;
   const double t_s = static_cast<double>(frame.t_ns - first_t_ns_) * 1e-9;
   if (rec.estimated && rec.estimate.valid && series_.est_t_s.size() < series_.est_t_s.capacity()) {
     series_.est_t_s.push_back(t_s);
@@ -255,6 +255,8 @@ void ReplayPipeline::write_memory_stats(JsonWriter& w) const {
 void ReplayPipeline::write_drops(JsonWriter& w, const ReplaySummary& s) const {
   w.begin_object("drops")
       .value("imu_out_of_order", vio_.counters().imu_out_of_order)
+      .value("frames_not_time_aligned", vio_.time_alignment().frames_unaligned)
+      .value("imu_released_early", vio_.time_alignment().imu_released_early)
       .value("frontend_rejected_frames", s.frontend_rejected_frames)
       .value("report_series", series_dropped_);
   if (const Estimator* est = vio_.estimator()) {
@@ -323,6 +325,10 @@ void ReplayPipeline::write_estimator_stats(JsonWriter& w) const {
       .value("relocation_requests", e.relocation_requests)
       .value("relocations_solved", e.relocations_solved)
       .value("relocation_residuals", e.relocation_residuals)
+      .end_object();
+  w.begin_object("time_offset")
+      .value("td_ms", rig_td_s_ * 1e3, 4)
+      .value("frames_held_for_imu", vio_.time_alignment().frames_held)
       .end_object();
 }
 

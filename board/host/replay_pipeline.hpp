@@ -48,7 +48,7 @@ struct ReplaySummary {
   std::uint64_t saturated_samples = 0;         // IMU samples the saturation element clipped
 };
 
-class ReplayPipeline final : public MeasurementSink {
+class ReplayPipeline final : public MeasurementSink, private FrameObserver {
  public:
   ReplayPipeline(const AppConfig& config, const ReplayPipelineOptions& options);
   ~ReplayPipeline() override;
@@ -99,8 +99,10 @@ class ReplayPipeline final : public MeasurementSink {
 
  private:
   void note_time(std::int64_t t_ns);
+  // Each frame once processed (a camera-IMU offset may make it wait for the IMU).
+  void on_frame_done(const VioFrameRecord& record, const StereoFrame& frame) override;
   void record_stage_times(const VioFrameRecord& frame);
-  void record_series(const StereoFrame& frame, double total_ms);
+  void record_series(const VioFrameRecord& rec, const StereoFrame& frame);
   void write_timing_stats(JsonWriter& w) const;
   void write_memory_stats(JsonWriter& w) const;
   void write_drops(JsonWriter& w, const ReplaySummary& s) const;
@@ -116,6 +118,7 @@ class ReplayPipeline final : public MeasurementSink {
   TumPoseSink poses_;
   PoseFanout fanout_;  // poses_, then the consumer
   VioPipeline vio_;
+  double rig_td_s_ = 0.0;  // the configured camera-IMU offset (t_imu = t_cam + td)
   // Running sums for the summary.
   double sum_3d_ = 0.0, sum_2d_left_ = 0.0, sum_2d_right_ = 0.0;
   double sum_track_length_ = 0.0, observations_ = 0.0;

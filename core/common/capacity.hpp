@@ -53,6 +53,7 @@ inline constexpr std::size_t kMaxCornerCandidates = 4096;  // NMS maxima per det
 namespace ums::capacity {
 inline constexpr std::size_t kMaxVisualResiduals = 6000;   // bearing residuals in one window solve
 inline constexpr std::size_t kStandstillImuSamples = 1024; // IMU samples kept for the standstill test (0.5 s at 2 kHz)
+inline constexpr std::size_t kHeldImuSamples = 256;      // IMU samples held back for a negative camera-IMU offset (pipeline/time_aligner: 0.25 s at 1 kHz)
 }  // namespace ums::capacity
 
 // Loop closure (issue 17): the keyframe database and its place-recognition index.

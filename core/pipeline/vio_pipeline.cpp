@@ -1,5 +1,6 @@
 #include "core/pipeline/vio_pipeline.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -10,7 +11,8 @@ namespace ums {
 
 VioPipeline::VioPipeline(const VioPipelineOptions& options, const FrontendOptions& frontend,
                          const EstimatorOptions& estimator, const RigCalibration& rig)
-    : td_ns_(static_cast<std::int64_t>(std::llround(rig.td_s * 1e9))),
+    : aligner_(static_cast<std::int64_t>(std::llround(rig.td_s * 1e9)), std::max(rig.cam[0].width, rig.cam[1].width),
+               std::max(rig.cam[0].height, rig.cam[1].height)),
       saturation_(options.saturation),
       frontend_(frontend, rig),
       estimator_(options.frontend_only ? nullptr : new Estimator(estimator, rig)),
@@ -21,7 +23,11 @@ VioPipeline::VioPipeline(const VioPipelineOptions& options, const FrontendOption
 
 VioPipeline::~VioPipeline() = default;
 
-void VioPipeline::on_imu(const ImuSample& sample) {
+void VioPipeline::on_imu(const ImuSample& sample) { aligner_.on_imu(sample, &aligned_); }
+
+void VioPipeline::on_stereo(const StereoFrame& frame) { aligner_.on_stereo(frame, &aligned_); }
+
+void VioPipeline::process_imu(const ImuSample& sample) {
   if (sample.t_ns <= last_imu_t_ns_) {
     ++counters_.imu_out_of_order;  // a source bug: count, never pass on
     return;
@@ -48,16 +54,15 @@ void VioPipeline::integrate_hint(const ImuSample& sample, const ImuSample& clipp
   have_imu_since_frame_ = true;
 }
 
-void VioPipeline::on_stereo(const StereoFrame& frame) {
-  // The camera-IMU offset, applied here and nowhere else: from now on the frame is on the IMU
-  // clock (t_imu = t_cam + td_s).
-  StereoFrame f = frame;
-  f.t_ns += td_ns_;
+void VioPipeline::process_stereo(const StereoFrame& f) {
+  const auto start = std::chrono::steady_clock::now();
   ++counters_.frames;
   record_ = VioFrameRecord{};
   record_.t_ns = f.t_ns;
   run_frontend(f);
   if (record_.frontend_status == Status::kOk && estimator_ != nullptr) run_estimator(f);
+  record_.total_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  if (frame_observer_ != nullptr) frame_observer_->on_frame_done(record_, f);
 }
 
 void VioPipeline::run_frontend(const StereoFrame& frame) {

@@ -4,7 +4,9 @@
 //
 //   on_imu:    time order check -> saturation element -> gyro rotation hint -> Estimator::add_imu
 //              -> PoseSink::on_imu_pose (once a pose exists)
-//   on_stereo: + rig td_s (the only place the camera-IMU offset is applied) -> Frontend (with the
+//   (both through TimeAligner first: + rig td_s, the only place the camera-IMU offset is applied,
+//   and IMU-time order restored when td_s is not 0)
+//   on_stereo: Frontend (with the
 //              hint) -> Estimator::add_frame -> PoseSink::on_frame_pose (when valid),
 //              KeyframeImageSink::on_keyframe_image (the previous frame, when this frame's window
 //              slide made it permanent: EstimatorOutput::settled_frame)
@@ -30,6 +32,7 @@
 #include "core/imu/saturation.hpp"
 #include "core/pipeline/keyframe_image_sink.hpp"
 #include "core/pipeline/pose_sink.hpp"
+#include "core/pipeline/time_aligner.hpp"
 
 namespace ums {
 
@@ -38,7 +41,8 @@ struct VioPipelineOptions {
   SaturationOptions saturation;    // the IMU saturation element ahead of everything else
 };
 
-// What one on_stereo did.
+// What one frame did (a frame is processed in on_stereo, or in a later on_imu when a positive
+// camera-IMU offset makes it wait for the IMU: see FrameObserver).
 struct VioFrameRecord {
   std::int64_t t_ns = 0;                   // the frame's time on the IMU clock (stamp + td_s)
   Status frontend_status = Status::kOk;    // kOk: features() holds this frame's features
@@ -46,6 +50,15 @@ struct VioFrameRecord {
   bool estimated = false;                  // the estimator ran: estimate and timing are this frame's
   EstimatorOutput estimate;
   EstimatorTiming timing;
+  double total_ms = 0.0;                   // ms, wall time of the whole frame in the pipeline
+};
+
+// Told of every frame once it has been processed, in order (the board's series and stage times).
+class FrameObserver {
+ public:
+  virtual ~FrameObserver() = default;
+  // frame: on the IMU clock; its images and the record are valid during the call.
+  virtual void on_frame_done(const VioFrameRecord& record, const StereoFrame& frame) = 0;
 };
 
 struct VioPipelineCounters {
@@ -73,6 +86,7 @@ class VioPipeline final : public MeasurementSink {
   // Not owned; nullptr: the output is not produced. Set between pushes.
   void set_pose_sink(PoseSink* sink) { pose_sink_ = sink; }
   void set_keyframe_image_sink(KeyframeImageSink* sink) { keyframe_sink_ = sink; }
+  void set_frame_observer(FrameObserver* observer) { frame_observer_ = observer; }
   // The estimator's marginalized keyframes (no effect with frontend_only).
   void set_keyframe_sink(KeyframeSink* sink) {
     if (estimator_ != nullptr) estimator_->set_keyframe_sink(sink);
@@ -84,20 +98,32 @@ class VioPipeline final : public MeasurementSink {
 
   const Estimator* estimator() const { return estimator_.get(); }  // nullptr with frontend_only
   const VioPipelineCounters& counters() const { return counters_; }
-  const VioFrameRecord& last_frame() const { return record_; }
+  const TimeAlignerCounters& time_alignment() const { return aligner_.counters(); }
+  const VioFrameRecord& last_frame() const { return record_; }  // the last frame processed
   const FrameFeatures& features() const { return *features_; }  // the last frame's (frontend_status kOk)
 
  private:
+  // What leaves the TimeAligner: IMU-time order, frames on the IMU clock.
+  struct Aligned final : MeasurementSink {
+    explicit Aligned(VioPipeline* p) : pipeline(p) {}
+    void on_imu(const ImuSample& sample) override { pipeline->process_imu(sample); }
+    void on_stereo(const StereoFrame& frame) override { pipeline->process_stereo(frame); }
+    VioPipeline* pipeline;
+  };
+  void process_imu(const ImuSample& sample);
+  void process_stereo(const StereoFrame& frame_imu_clock);
   void integrate_hint(const ImuSample& sample, const ImuSample& clipped);
   void run_frontend(const StereoFrame& frame);
   void run_estimator(const StereoFrame& frame);
   void hand_on_settled(const EstimatorOutput& est, const StereoFrame& frame);
 
-  std::int64_t td_ns_;  // rig td_s: t_imu = t_cam + td
+  TimeAligner aligner_;  // rig td_s: t_imu = t_cam + td
+  Aligned aligned_{this};
   SaturationElement saturation_;
   Frontend frontend_;
   std::unique_ptr<Estimator> estimator_;
   std::unique_ptr<FrameFeatures> features_;  // one frame's features, allocated once
+  FrameObserver* frame_observer_ = nullptr;
   PoseSink* pose_sink_ = nullptr;
   KeyframeImageSink* keyframe_sink_ = nullptr;
   // The previous frame, kept for the keyframe image sink.

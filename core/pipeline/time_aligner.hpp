@@ -1,0 +1,58 @@
+#pragma once
+// Puts a camera whose clock is offset from the IMU's (t_imu = t_cam + td, the rig's td_s) back in
+// IMU-time order before the estimator: the estimator closes each frame's IMU interval with the
+// samples that arrived before the frame, so a frame must come after every sample older than it
+// and before every sample newer.
+//
+//   td > 0: a frame arrives before the IMU has reached its time. It is copied and held until the
+//           first sample at or after its time arrives (or the next frame: then it goes on as it
+//           is, counted in frames_unaligned; td must stay below a frame period).
+//   td < 0: a frame arrives after IMU samples newer than it. Every sample is held back by |td|
+//           (kHeldImuSamples at most: the oldest is let go early, counted), and a frame first
+//           releases the samples not newer than it.
+//   td = 0: everything passes straight through (no copy, no delay).
+// The frames going out are already on the IMU clock. Allocates in the constructor only.
+
+#include <cstdint>
+#include <memory>
+
+#include "core/common/capacity.hpp"
+#include "core/common/measurement_sink.hpp"
+#include "core/common/ring_buffer.hpp"
+
+namespace ums {
+
+struct TimeAlignerCounters {
+  std::uint64_t frames_held = 0;           // td > 0: waited for the IMU to reach them
+  std::uint64_t frames_unaligned = 0;      // went on before the IMU reached them (td too large)
+  std::uint64_t imu_released_early = 0;    // td < 0: let go before |td| had passed (ring full)
+};
+
+class TimeAligner {
+ public:
+  // td_ns: t_imu = t_cam + td. max_width, max_height: the largest image to hold (td > 0).
+  TimeAligner(std::int64_t td_ns, int max_width, int max_height);
+  TimeAligner(const TimeAligner&) = delete;
+  TimeAligner& operator=(const TimeAligner&) = delete;
+
+  // In arrival order; out gets them in IMU-time order.
+  void on_imu(const ImuSample& sample, MeasurementSink* out);
+  // frame: stamped on the camera clock.
+  void on_stereo(const StereoFrame& frame, MeasurementSink* out);
+  const TimeAlignerCounters& counters() const { return counters_; }
+
+ private:
+  void hold_frame(const StereoFrame& frame_imu_clock);
+  void release_imu_until(std::int64_t t_ns, MeasurementSink* out);
+
+  std::int64_t td_ns_;
+  std::int64_t newest_imu_t_ns_ = INT64_MIN;
+  std::unique_ptr<RingBuffer<ImuSample, capacity::kHeldImuSamples>> held_imu_;  // td < 0
+  std::unique_ptr<std::uint8_t[]> left_, right_;                               // td > 0
+  std::size_t image_bytes_ = 0;
+  bool frame_held_ = false;
+  StereoFrame held_frame_;
+  TimeAlignerCounters counters_;
+};
+
+}  // namespace ums

@@ -1,0 +1,147 @@
+// The camera-IMU offset in the pipeline: frames and IMU samples leave the TimeAligner in IMU-time
+// order whatever the offset's sign, frames on the IMU clock, a held frame's pixels copied, and the
+// limits counted; nothing allocates per sample or frame.
+#include "core/pipeline/time_aligner.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <cstdint>
+#include <vector>
+
+#include "profiling/alloc_counter.hpp"
+
+using namespace ums;
+
+namespace {
+
+constexpr std::int64_t kMs = 1'000'000;
+
+// What leaves the aligner: (t_ns, is_frame, first left pixel), reserved up front.
+struct Recorder final : MeasurementSink {
+  struct Item {
+    std::int64_t t_ns;
+    bool frame;
+    int pixel;
+  };
+  Recorder() { items.reserve(4096); }
+  void on_imu(const ImuSample& s) override { items.push_back({s.t_ns, false, -1}); }
+  void on_stereo(const StereoFrame& f) override { items.push_back({f.t_ns, true, f.left.valid() ? f.left.data[0] : -1}); }
+  std::vector<Item> items;
+};
+
+// 1 s of a 200 Hz IMU and a 20 Hz camera whose clock is td early (t_cam = t_imu - td), pushed in
+// the order a source delivers them: by their own stamps, IMU first on ties. Frame k's left image
+// is filled with k, and the buffer is reused for the next frame (as a source's would be).
+Recorder run(TimeAligner* aligner, std::int64_t td_ns) {
+  Recorder out;
+  std::vector<std::uint8_t> left(8 * 4), right(8 * 4);
+  std::int64_t next_frame_t_imu = 10 * kMs;
+  int k = 0;
+  for (std::int64_t t = 0; t <= 1000 * kMs; t += 5 * kMs) {
+    while (next_frame_t_imu - td_ns < t) {  // frames stamped before this sample
+      std::fill(left.begin(), left.end(), static_cast<std::uint8_t>(k));
+      StereoFrame f;
+      f.t_ns = next_frame_t_imu - td_ns;
+      f.left = ImageView{left.data(), 8, 4, 8};
+      f.right = ImageView{right.data(), 8, 4, 8};
+      aligner->on_stereo(f, &out);
+      next_frame_t_imu += 50 * kMs;
+      ++k;
+    }
+    ImuSample s;
+    s.t_ns = t;
+    aligner->on_imu(s, &out);
+  }
+  return out;
+}
+
+// Every frame after all samples up to its time and before all later ones; samples in order.
+void check_order(const Recorder& r) {
+  std::int64_t last_imu = -1;
+  for (std::size_t i = 0; i < r.items.size(); ++i) {
+    const Recorder::Item& it = r.items[i];
+    if (!it.frame) {
+      CHECK(it.t_ns > last_imu);
+      last_imu = it.t_ns;
+      continue;
+    }
+    CHECK(last_imu <= it.t_ns);  // no later sample went before the frame
+    if (i + 1 < r.items.size() && !r.items[i + 1].frame) CHECK(r.items[i + 1].t_ns > it.t_ns);
+  }
+}
+
+int frames(const Recorder& r) {
+  int n = 0;
+  for (const auto& it : r.items) n += it.frame;
+  return n;
+}
+
+}  // namespace
+
+TEST_CASE("TimeAligner: no offset passes everything through as it came", "[pipeline]") {
+  TimeAligner aligner(0, 8, 4);
+  const Recorder r = run(&aligner, 0);
+  check_order(r);
+  CHECK(frames(r) == 20);
+  CHECK(r.items.size() == 20 + 201);
+  CHECK(aligner.counters().frames_held == 0);
+}
+
+TEST_CASE("TimeAligner: a camera 12 ms early waits for the IMU; its frames keep their pixels", "[pipeline]") {
+  TimeAligner aligner(12 * kMs, 8, 4);
+  const Recorder r = run(&aligner, 12 * kMs);
+  check_order(r);
+  CHECK(frames(r) == 20);
+  // 21 were pushed: the one stamped 998 ms (1010 ms on the IMU clock) still waits for the IMU.
+  CHECK(aligner.counters().frames_held == 21);
+  CHECK(aligner.counters().frames_unaligned == 0);
+  int k = 0;
+  for (const auto& it : r.items) {
+    if (!it.frame) continue;
+    CHECK(it.t_ns == 10 * kMs + 50 * kMs * k);  // on the IMU clock
+    CHECK(it.pixel == k);                        // the copy, not the reused source buffer
+    ++k;
+  }
+}
+
+TEST_CASE("TimeAligner: a camera 8 ms late gets the IMU held back by 8 ms", "[pipeline]") {
+  TimeAligner aligner(-8 * kMs, 8, 4);
+  const Recorder r = run(&aligner, -8 * kMs);
+  check_order(r);
+  CHECK(frames(r) == 20);
+  // The samples of the last 8 ms (995 and 1000 ms) wait for a frame or for 8 ms more of IMU.
+  CHECK(r.items.size() == 20 + 201 - 2);
+  CHECK(aligner.counters().imu_released_early == 0);
+}
+
+TEST_CASE("TimeAligner: an offset beyond a frame period is counted, nothing is lost", "[pipeline]") {
+  TimeAligner aligner(70 * kMs, 8, 4);
+  const Recorder r = run(&aligner, 70 * kMs);
+  CHECK(frames(r) >= 19);
+  CHECK(aligner.counters().frames_unaligned > 10);
+  TimeAligner late(-400 * kMs, 8, 4);  // 80 samples held: more than 0.25 s at 1 kHz would not fit
+  const Recorder r2 = run(&late, -400 * kMs);
+  check_order(r2);
+  CHECK(late.counters().imu_released_early == 0);
+}
+
+TEST_CASE("TimeAligner: holding frames and samples allocates nothing", "[pipeline]") {
+  for (std::int64_t td : {12 * kMs, -8 * kMs}) {
+    TimeAligner aligner(td, 8, 4);
+    Recorder out;
+    std::vector<std::uint8_t> img(32, 7);
+    AllocScope scope;
+    for (int i = 0; i < 200; ++i) {
+      ImuSample s;
+      s.t_ns = i * 5 * kMs;
+      aligner.on_imu(s, &out);
+      if (i % 10 == 5) {
+        StereoFrame f;
+        f.t_ns = s.t_ns - td;
+        f.left = f.right = ImageView{img.data(), 8, 4, 8};
+        aligner.on_stereo(f, &out);
+      }
+    }
+    CHECK(scope.allocations() == 0);
+  }
+}
