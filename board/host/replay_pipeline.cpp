@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 
+#include "core/estimator/window.hpp"
 #include "profiling/alloc_counter.hpp"
 
 namespace ums::cli {
@@ -330,6 +331,46 @@ void ReplayPipeline::write_estimator_stats(JsonWriter& w) const {
       .value("td_ms", rig_td_s_ * 1e3, 4)
       .value("frames_held_for_imu", vio_.time_alignment().frames_held)
       .end_object();
+  write_extrinsic_stats(w);
+}
+
+void ReplayPipeline::write_extrinsic_stats(JsonWriter& w) const {
+  const Estimator& est = *vio_.estimator();
+  const EstimatorStats& e = est.stats();
+  const Extrinsics& x = est.window().extrinsics();
+  // How far the estimate moved from the calibration: each camera, and the stereo pair's relative
+  // pose (the baseline prior's job to keep).
+  auto moved = [](const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, double* deg, double* mm) {
+    const Eigen::Isometry3d d = a.inverse() * b;
+    *deg = Eigen::AngleAxisd(d.linear()).angle() * 180.0 / M_PI;
+    *mm = d.translation().norm() * 1e3;
+  };
+  double deg[3], mm[3];
+  for (int c = 0; c < 2; ++c) moved(x.calibration(c), x.T_b_c(c), &deg[c], &mm[c]);
+  moved(x.calibration(0).inverse() * x.calibration(1), x.T_b_c(0).inverse() * x.T_b_c(1), &deg[2], &mm[2]);
+  w.begin_object("extrinsic")
+      .value("estimated", x.floating())
+      .value("released_s", e.extrinsic_released_t_ns >= 0
+                               ? (static_cast<double>(e.extrinsic_released_t_ns - e.first_frame_t_ns)) * 1e-9 : -1.0, 4)
+      .value("max_rotation_excitation_deg", e.max_rotation_excitation_deg, 4)
+      .value("cam0_change_deg", deg[0], 4)
+      .value("cam0_change_mm", mm[0], 4)
+      .value("cam1_change_deg", deg[1], 4)
+      .value("cam1_change_mm", mm[1], 4)
+      .value("stereo_change_deg", deg[2], 4)
+      .value("stereo_change_mm", mm[2], 4);
+  // The estimates themselves: T_b_c per camera as [x y z] m and [qx qy qz qw].
+  for (int c = 0; c < 2; ++c) {
+    const Eigen::Vector3d p = x.T_b_c(c).translation();
+    const Eigen::Quaterniond q(x.T_b_c(c).linear());
+    w.begin_array(c == 0 ? "cam0_p_b_c_m" : "cam1_p_b_c_m");
+    for (int i = 0; i < 3; ++i) w.value(nullptr, p[i], 9);
+    w.end_array();
+    w.begin_array(c == 0 ? "cam0_q_b_c" : "cam1_q_b_c");
+    for (double v : {q.x(), q.y(), q.z(), q.w()}) w.value(nullptr, v, 9);
+    w.end_array();
+  }
+  w.end_object();
 }
 
 void ReplayPipeline::print_summary(std::ostream& out) const {

@@ -42,6 +42,10 @@ ProblemBuilderOptions builder_options(const EstimatorOptions& o) {
   b.min_depth_m = o.min_depth_m;
   b.max_depth_m = o.max_depth_m;
   b.estimate_extrinsic = o.estimate_extrinsic;
+  b.extrinsic_sigma_m = o.extrinsic_sigma_m;
+  b.extrinsic_sigma_rad = o.extrinsic_sigma_deg * M_PI / 180.0;
+  b.baseline_sigma_m = o.baseline_sigma_m;
+  b.baseline_sigma_rad = o.baseline_sigma_deg * M_PI / 180.0;
   b.function_tolerance = o.function_tolerance;
   b.selection.budget = o.max_landmarks_in_solve;
   b.selection.share_2d = o.share_2d;

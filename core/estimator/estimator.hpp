@@ -150,6 +150,12 @@ class Estimator {
   bool solve_stages(WindowFrame& f, SolveSpec* spec);
   void second_round(const SolveSpec& spec, bool converged);
   bool begin_relocation();
+  // estimate_extrinsic: releases the extrinsics once the window is excited enough (sticky).
+  void release_extrinsics_when_excited(std::int64_t t_ns);
+  // The window's rotation about its least-excited axis: sqrt of the least eigenvalue of
+  // sum phi phi^T over the rotations phi between consecutive frames, deg. Turning about one axis
+  // only (a car) it stays 0: the extrinsic rotation about the others is not observable then.
+  double rotation_excitation_deg() const;
   void end_relocation(const Eigen::Isometry3d& T_b0_loop, const SolveSpec& spec);
   void apply(ModeEvent event);
 

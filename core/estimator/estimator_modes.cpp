@@ -3,6 +3,8 @@
 #include <chrono>
 #include <cmath>
 
+#include <Eigen/Eigenvalues>
+
 #include "core/estimator/estimator.hpp"
 #include "core/estimator/imu_buffer.hpp"
 #include "core/estimator/initializer.hpp"
@@ -13,6 +15,7 @@
 #include "core/estimator/state_blocks.hpp"
 #include "core/estimator/window.hpp"
 #include "core/estimator/window_backup.hpp"
+#include "core/math/so3.hpp"
 
 namespace ums {
 ModeEvent Estimator::frame_imu_only(WindowFrame& f) {
@@ -113,6 +116,7 @@ void Estimator::frame_vio(WindowFrame& f, EstimatorTiming* timing) {
   spec.imu = true;
   spec.prior = true;
   const bool relocating = begin_relocation();
+  release_extrinsics_when_excited(f.t_ns);
   const bool converged = solve_stages(f, &spec);
   timing->solve_round1_ms = static_cast<float>(ms_since(t1));
   const auto t2 = std::chrono::steady_clock::now();
@@ -123,6 +127,27 @@ void Estimator::frame_vio(WindowFrame& f, EstimatorTiming* timing) {
                                                  : Eigen::Isometry3d::Identity();
   hold_gauge(T_w_b0_before);
   if (relocating) end_relocation(T_b0_loop, spec);
+}
+
+void Estimator::release_extrinsics_when_excited(std::int64_t t_ns) {
+  if (!options_.estimate_extrinsic || builder_->extrinsics_released()) return;
+  const double excitation_deg = rotation_excitation_deg();
+  stats_.max_rotation_excitation_deg = std::max(stats_.max_rotation_excitation_deg, excitation_deg);
+  if (excitation_deg < options_.extrinsic_release_deg) return;
+  builder_->release_extrinsics();
+  stats_.extrinsic_released_t_ns = t_ns;
+}
+
+double Estimator::rotation_excitation_deg() const {
+  Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
+  for (int k = 1; k < window_->size(); ++k) {
+    const Eigen::Matrix3d R_a = window_->T_w_b(window_->slot_at(k - 1)).linear();
+    const Eigen::Matrix3d R_b = window_->T_w_b(window_->slot_at(k)).linear();
+    const Eigen::Vector3d phi = so3::log(Eigen::Matrix3d(R_a.transpose() * R_b));
+    M += phi * phi.transpose();
+  }
+  const double least = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(M, Eigen::EigenvaluesOnly).eigenvalues()(0);
+  return std::sqrt(std::max(least, 0.0)) * 180.0 / M_PI;
 }
 
 bool Estimator::begin_relocation() {

@@ -42,6 +42,11 @@ void EstimatorOptions::validate() const {
   require(min_stereo_disparity_px >= 0.0, "min_stereo_disparity_px", min_stereo_disparity_px);
   require(landmark_spread_px >= 0.0, "landmark_spread_px", landmark_spread_px);
   require(stage_min_2d_left >= 0, "stage_min_2d_left", stage_min_2d_left);
+  require(extrinsic_release_deg >= 0.0, "extrinsic_release_deg", extrinsic_release_deg);
+  require(extrinsic_sigma_m > 0.0, "extrinsic_sigma_m", extrinsic_sigma_m);
+  require(extrinsic_sigma_deg > 0.0, "extrinsic_sigma_deg", extrinsic_sigma_deg);
+  require(baseline_sigma_m > 0.0, "baseline_sigma_m", baseline_sigma_m);
+  require(baseline_sigma_deg > 0.0, "baseline_sigma_deg", baseline_sigma_deg);
   preintegration.validate();
   keyframe.validate();
   standstill.validate();

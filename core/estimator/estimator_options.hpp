@@ -19,6 +19,13 @@ struct EstimatorOptions {
   double huber_px = 1.5;             // px, Huber threshold on the visual residuals
   double gravity_m_s2 = 9.81;        // m/s^2
   bool estimate_extrinsic = false;   // optimize T_b_c0 / T_b_c1 in the window
+  // With estimate_extrinsic: the extrinsics stay at the calibration until the window's rotation
+  // excitation (about its least-excited axis, Estimator::rotation_excitation_deg) first reaches
+  // extrinsic_release_deg; then they float in the VIO solves under a prior around the
+  // calibration, with the stereo pair's relative pose held to the calibrated one (baseline sigmas).
+  double extrinsic_release_deg = 1.0;
+  double extrinsic_sigma_m = 0.05, extrinsic_sigma_deg = 3.0;
+  double baseline_sigma_m = 0.0005, baseline_sigma_deg = 0.05;
   PreintegrationOptions preintegration;  // noise: set from the rig calibration by the caller
   double imu_noise_inflation = 2.0;   // 1, multiplies the calibrated white-noise densities:
                                       // unmodelled vibration and timing (VINS-Fusion: EuRoC ~10x)

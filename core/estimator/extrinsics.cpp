@@ -7,6 +7,8 @@ namespace ums {
 void Extrinsics::set(const Eigen::Isometry3d& T_b_c0, const Eigen::Isometry3d& T_b_c1) {
   T_b_c_[0] = T_b_c0;
   T_b_c_[1] = T_b_c1;
+  calibration_[0] = T_b_c0;
+  calibration_[1] = T_b_c1;
   for (int c = 0; c < 2; ++c) pose_from_iso(T_b_c_[c], block_[c]);
 }
 

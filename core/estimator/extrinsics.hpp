@@ -15,6 +15,8 @@ class Extrinsics {
   // T_b_c: camera c -> IMU body.
   void set(const Eigen::Isometry3d& T_b_c0, const Eigen::Isometry3d& T_b_c1);
   const Eigen::Isometry3d& T_b_c(int cam) const { return T_b_c_[cam]; }
+  // As set(): the calibration the floating extrinsics are held to.
+  const Eigen::Isometry3d& calibration(int cam) const { return calibration_[cam]; }
   const Eigen::Isometry3d* T_b_c_array() const { return T_b_c_; }
   double* block(int cam) { return block_[cam]; }
   const double* block(int cam) const { return block_[cam]; }
@@ -29,6 +31,7 @@ class Extrinsics {
   double block_[2][state::kPoseSize] = {};
   bool floating_ = false;
   Eigen::Isometry3d T_b_c_[2] = {Eigen::Isometry3d::Identity(), Eigen::Isometry3d::Identity()};
+  Eigen::Isometry3d calibration_[2] = {Eigen::Isometry3d::Identity(), Eigen::Isometry3d::Identity()};
 };
 
 }  // namespace ums

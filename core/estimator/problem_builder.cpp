@@ -82,6 +82,7 @@ int ProblemBuilder::build(const SolveSpec& spec) {
   if (relocation_ != nullptr && spec.imu) add_relocation_terms();
   stats_->peak_residuals = std::max(stats_->peak_residuals, static_cast<std::size_t>(n_visual_));
   if (spec.imu) add_imu_terms();
+  if (extrinsics_float(spec)) add_extrinsic_priors();
   if (spec.prior && !marginalizer_->empty()) add_marginal_prior();
   return n_selected_;
 }
@@ -101,7 +102,7 @@ void ProblemBuilder::add_state_blocks(const SolveSpec& spec) {
   for (int c = 0; c < 2; ++c) {
     P.add_pose_block(w.extrinsics().block(c), &ext_id_[c]);
     table_.note(ext_id_[c], BlockKind::kExtrinsic, static_cast<std::uint32_t>(c));
-    P.set_constant(ext_id_[c], !options_.estimate_extrinsic);
+    P.set_constant(ext_id_[c], !extrinsics_float(spec));
   }
   if (spec.fix_first_pose && w.size() > 0) P.set_constant(pose_id_[w.slot_at(0)], true);
 }
@@ -173,6 +174,20 @@ void ProblemBuilder::add_imu_terms() {
     if (k > 0 && w.at(k - 1).still)
       P.add_residual(&still_, solver::RobustLoss::trivial(), {pose_id_[w.slot_at(k - 1)], pose_id_[s]});
   }
+}
+
+void ProblemBuilder::add_extrinsic_priors() {
+  const Extrinsics& e = window_->extrinsics();
+  for (int c = 0; c < 2; ++c) {
+    const Eigen::Isometry3d& T = e.calibration(c);
+    extrinsic_prior_[c].set(T.translation(), Eigen::Quaterniond(T.linear()), options_.extrinsic_sigma_m,
+                            options_.extrinsic_sigma_rad);
+    problem_->add_residual(&extrinsic_prior_[c], solver::RobustLoss::trivial(), {ext_id_[c]});
+  }
+  const Eigen::Isometry3d T_c0_c1 = e.calibration(0).inverse() * e.calibration(1);
+  baseline_prior_.set(T_c0_c1.translation(), Eigen::Quaterniond(T_c0_c1.linear()), options_.baseline_sigma_m,
+                      options_.baseline_sigma_rad);
+  problem_->add_residual(&baseline_prior_, solver::RobustLoss::trivial(), {ext_id_[0], ext_id_[1]});
 }
 
 void ProblemBuilder::add_marginal_prior() {

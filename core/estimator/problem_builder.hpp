@@ -36,6 +36,8 @@ struct ProblemBuilderOptions {
   double min_depth_m = 0.1;
   double max_depth_m = 60.0;
   bool estimate_extrinsic = false;
+  double extrinsic_sigma_m = 0.05, extrinsic_sigma_rad = 0.05;   // prior around the calibration
+  double baseline_sigma_m = 0.0005, baseline_sigma_rad = 0.001;  // the stereo pair's relative pose
   double function_tolerance = 1e-3;
   SelectionPolicy selection;
   double still_sigma_m = 0.002, still_sigma_rad = 0.001, still_sigma_v = 0.01;
@@ -69,6 +71,10 @@ class ProblemBuilder {
   // The bias prior of the initialization, on the speed-bias of frame `id` while it is in the window.
   void set_init_prior(const SpeedBiasPrior::Vector9& target, const SpeedBiasPrior::Vector9& sigma, FrameId id);
   void clear_init_prior() { init_prior_frame_ = kNoFrame; }
+  // With estimate_extrinsic, the extrinsics float (under their priors) in the VIO solves from
+  // this call on; before, they are held at the calibration.
+  void release_extrinsics() { extrinsics_released_ = true; }
+  bool extrinsics_released() const { return extrinsics_released_; }
 
   // Tightly coupled relocation (relocation.hpp): until clear_relocation(), every VIO solve adds
   // the loop keyframe's pose, started at T_odom_loop, and the bearing residuals of the request's
@@ -98,6 +104,10 @@ class ProblemBuilder {
   void add_landmarks(std::uint8_t groups);
   bool add_landmark_edges(int pool_idx, int lm_block);
   void add_imu_terms();
+  void add_extrinsic_priors();
+  bool extrinsics_float(const SolveSpec& spec) const {
+    return options_.estimate_extrinsic && extrinsics_released_ && spec.imu;
+  }
   void add_marginal_prior();
   void add_relocation_terms();
   // The request's matches whose landmarks qualify (see set_relocation), as match indices.
@@ -125,6 +135,9 @@ class ProblemBuilder {
   FrameId init_prior_frame_ = kNoFrame;
   SpeedBiasPrior zero_velocity_;
   StillResidual still_;
+  bool extrinsics_released_ = false;
+  PosePrior extrinsic_prior_[2];
+  RelativePosePrior baseline_prior_;
   const RelocationRequest* relocation_ = nullptr;
   double relocation_pose_[state::kPoseSize] = {};
   std::unique_ptr<BearingResidual[]> relocation_res_;

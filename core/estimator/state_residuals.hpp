@@ -6,8 +6,14 @@
 //  - StillResidual: two poses coincide (p_j - p_i = 0, Log(q_i^-1 q_j) = 0), the zero-motion
 //    constraint while the IMU says the rig is at rest; it holds the estimate still when still
 //    (drift at rest is a common complaint about the parent VINS-Fusion, issue #11 / #36).
+//  - PosePrior: a pose block around a target pose (p - p0, Log(q0^-1 q)) over sigmas in metres
+//    and radians: the calibration's extrinsics when they float (estimate_extrinsic).
+//  - RelativePosePrior: two pose blocks keep a relative pose T_a_b (R_a^T (p_b - p_a) - t_ab,
+//    Log(q_ab^-1 q_a^-1 q_b)): the stereo pair's calibrated baseline while the extrinsics float.
+// Pose blocks are [p, q] with q perturbed on the right: q Exp(d).
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include "solver/residual.hpp"
 
@@ -35,6 +41,31 @@ class StillResidual final : public solver::ResidualFunction {
  private:
   double w_p_ = 1e3;
   double w_r_ = 1e3;
+};
+
+class PosePrior final : public solver::ResidualFunction {
+ public:
+  void set(const Eigen::Vector3d& p0, const Eigen::Quaterniond& q0, double sigma_m, double sigma_rad);
+  int num_residuals() const override { return 6; }
+  bool evaluate(const double* const* x, double* r, const solver::JacobianView* jac) const override;
+
+ private:
+  Eigen::Vector3d p0_ = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond q0_ = Eigen::Quaterniond::Identity();
+  double w_p_ = 1.0, w_r_ = 1.0;
+};
+
+class RelativePosePrior final : public solver::ResidualFunction {
+ public:
+  // t_ab, q_ab: b in a's frame.
+  void set(const Eigen::Vector3d& t_ab, const Eigen::Quaterniond& q_ab, double sigma_m, double sigma_rad);
+  int num_residuals() const override { return 6; }
+  bool evaluate(const double* const* x, double* r, const solver::JacobianView* jac) const override;
+
+ private:
+  Eigen::Vector3d t_ab_ = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond q_ab_ = Eigen::Quaterniond::Identity();
+  double w_p_ = 1.0, w_r_ = 1.0;
 };
 
 }  // namespace ums
