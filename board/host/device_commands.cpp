@@ -256,6 +256,7 @@ int run_live(const std::vector<std::string>& argv, std::ostream& out, std::ostre
   attach_mavlink(mavlink.get(), loop.get(), pipeline);
 
   const ProducerResult producer = run_threads(*src, *bridge, pipeline, seconds);
+  pipeline.end_of_input();
   const bool poses_ok = close_pose_files(&files, pipeline);
   const ReplaySummary summary = pipeline.summary();
   JsonWriter w;

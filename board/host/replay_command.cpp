@@ -245,6 +245,7 @@ StreamResult stream(hal::EurocReader& reader, ReplayPipeline& pipeline, bool rea
       if (!quiet) progress.update(static_cast<unsigned long>(pipeline.frames()));
     }
   }
+  pipeline.end_of_input();
   if (reader.status() != Status::kOk) {
     // The files changed under us after open() validated them: say where, keep what was done.
     err << "umsvins replay: stopped early: " << reader.error() << "\n";

@@ -57,6 +57,8 @@ class ReplayPipeline final : public MeasurementSink, private FrameObserver {
 
   void on_imu(const ImuSample& sample) override;
   void on_stereo(const StereoFrame& frame) override;
+  // After the last measurement: what the camera-IMU offset still holds goes on.
+  void end_of_input() { vio_.flush(); }
 
   std::uint64_t frames() const { return vio_.counters().frames; }
   void set_static_bytes(std::size_t bytes) { static_bytes_ = bytes; }

@@ -21,6 +21,10 @@ void TimeAligner::on_imu(const ImuSample& sample, MeasurementSink* out) {
   if (sample.t_ns > newest_imu_t_ns_) newest_imu_t_ns_ = sample.t_ns;
   if (held_imu_ == nullptr) {
     out->on_imu(sample);
+    if (frame_held_ && sample.t_ns == held_frame_.t_ns) {  // the IMU is at its time now
+      frame_held_ = false;
+      out->on_stereo(held_frame_);
+    }
     return;
   }
   if (held_imu_->full()) {
@@ -42,11 +46,20 @@ void TimeAligner::on_stereo(const StereoFrame& frame, MeasurementSink* out) {
     out->on_stereo(held_frame_);
   }
   if (held_imu_ != nullptr) release_imu_until(f.t_ns, out);
-  if (td_ns_ > 0 && f.left.valid() && newest_imu_t_ns_ < f.t_ns) {
+  if (td_ns_ > 0 && f.left.valid() && newest_imu_t_ns_ < f.t_ns && fits(f)) {
     hold_frame(f);
     return;
   }
   out->on_stereo(f);
+}
+
+void TimeAligner::flush(MeasurementSink* out) {
+  if (held_imu_ != nullptr) release_imu_until(INT64_MAX, out);
+  if (frame_held_) {
+    frame_held_ = false;
+    ++counters_.frames_unaligned;
+    out->on_stereo(held_frame_);
+  }
 }
 
 void TimeAligner::release_imu_until(std::int64_t t_ns, MeasurementSink* out) {
@@ -57,6 +70,13 @@ void TimeAligner::release_imu_until(std::int64_t t_ns, MeasurementSink* out) {
   }
 }
 
+bool TimeAligner::fits(const StereoFrame& f) const {
+  for (const ImageView* v : {&f.left, &f.right}) {
+    if (v->valid() && static_cast<std::size_t>(v->width) * static_cast<std::size_t>(v->height) > image_bytes_) return false;
+  }
+  return true;
+}
+
 void TimeAligner::hold_frame(const StereoFrame& f) {
   const ImageView* in[2] = {&f.left, &f.right};
   std::uint8_t* copy[2] = {left_.get(), right_.get()};
@@ -64,8 +84,8 @@ void TimeAligner::hold_frame(const StereoFrame& f) {
   held_frame_ = f;
   for (int c = 0; c < 2; ++c) {
     const ImageView& v = *in[c];
-    if (!v.valid() || static_cast<std::size_t>(v.width) * static_cast<std::size_t>(v.height) > image_bytes_) {
-      *view[c] = ImageView{};  // missing, or larger than any camera of the rig: goes on without it
+    if (!v.valid()) {
+      *view[c] = ImageView{};  // missing (a right-camera dropout)
       continue;
     }
     for (int y = 0; y < v.height; ++y) std::memcpy(copy[c] + static_cast<std::size_t>(y) * v.width, v.row(y), v.width);

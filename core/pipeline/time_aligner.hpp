@@ -5,8 +5,9 @@
 // and before every sample newer.
 //
 //   td > 0: a frame arrives before the IMU has reached its time. It is copied and held until the
-//           first sample at or after its time arrives (or the next frame: then it goes on as it
-//           is, counted in frames_unaligned; td must stay below a frame period).
+//           first sample at or after its time has gone on (or the next frame comes: then it goes
+//           on as it is, counted in frames_unaligned; td must stay below a frame period; a frame
+//           larger than the rig's cameras is not held either).
 //   td < 0: a frame arrives after IMU samples newer than it. Every sample is held back by |td|
 //           (kHeldImuSamples at most: the oldest is let go early, counted), and a frame first
 //           releases the samples not newer than it.
@@ -39,10 +40,13 @@ class TimeAligner {
   void on_imu(const ImuSample& sample, MeasurementSink* out);
   // frame: stamped on the camera clock.
   void on_stereo(const StereoFrame& frame, MeasurementSink* out);
+  // End of the input: what is still held goes on (a held frame counted as not aligned).
+  void flush(MeasurementSink* out);
   const TimeAlignerCounters& counters() const { return counters_; }
 
  private:
   void hold_frame(const StereoFrame& frame_imu_clock);
+  bool fits(const StereoFrame& frame) const;
   void release_imu_until(std::int64_t t_ns, MeasurementSink* out);
 
   std::int64_t td_ns_;

@@ -82,6 +82,8 @@ class VioPipeline final : public MeasurementSink {
 
   void on_imu(const ImuSample& sample) override;
   void on_stereo(const StereoFrame& frame) override;
+  // End of the input: a frame or IMU samples still held for the camera-IMU offset go on.
+  void flush() { aligner_.flush(&aligned_); }
 
   // Not owned; nullptr: the output is not produced. Set between pushes.
   void set_pose_sink(PoseSink* sink) { pose_sink_ = sink; }

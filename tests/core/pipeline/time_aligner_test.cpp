@@ -102,6 +102,26 @@ TEST_CASE("TimeAligner: a camera 12 ms early waits for the IMU; its frames keep 
     CHECK(it.pixel == k);                        // the copy, not the reused source buffer
     ++k;
   }
+  // The end of the input lets the last one go (counted: the IMU never reached it).
+  Recorder rest;
+  aligner.flush(&rest);
+  REQUIRE(rest.items.size() == 1);
+  CHECK(rest.items[0].t_ns == 1010 * kMs);
+  CHECK(aligner.counters().frames_unaligned == 1);
+}
+
+TEST_CASE("TimeAligner: a held frame goes on right after the sample at its own time", "[pipeline]") {
+  TimeAligner aligner(10 * kMs, 8, 4);  // frames land on IMU stamps: 10, 60, 110 ms ...
+  const Recorder r = run(&aligner, 10 * kMs);
+  check_order(r);
+  int checked = 0;
+  for (std::size_t i = 1; i < r.items.size(); ++i) {
+    if (!r.items[i].frame) continue;
+    CHECK_FALSE(r.items[i - 1].frame);
+    CHECK(r.items[i - 1].t_ns == r.items[i].t_ns);  // not one IMU period later
+    ++checked;
+  }
+  CHECK(checked == 20);
 }
 
 TEST_CASE("TimeAligner: a camera 8 ms late gets the IMU held back by 8 ms", "[pipeline]") {
@@ -109,9 +129,14 @@ TEST_CASE("TimeAligner: a camera 8 ms late gets the IMU held back by 8 ms", "[pi
   const Recorder r = run(&aligner, -8 * kMs);
   check_order(r);
   CHECK(frames(r) == 20);
-  // The samples of the last 8 ms (995 and 1000 ms) wait for a frame or for 8 ms more of IMU.
+  // The samples of the last 8 ms (995 and 1000 ms) wait for a frame or for 8 ms more of IMU, or
+  // for the end of the input.
   CHECK(r.items.size() == 20 + 201 - 2);
   CHECK(aligner.counters().imu_released_early == 0);
+  Recorder rest;
+  aligner.flush(&rest);
+  REQUIRE(rest.items.size() == 2);
+  CHECK(rest.items[1].t_ns == 1000 * kMs);
 }
 
 TEST_CASE("TimeAligner: an offset beyond a frame period is counted, nothing is lost", "[pipeline]") {
