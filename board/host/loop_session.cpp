@@ -36,10 +36,16 @@ LoopSession::LoopSession(const std::filesystem::path& vocabulary, const loop::Lo
   if (live_file_ == nullptr) throw std::runtime_error(live_path_.string() + ": cannot open for writing");
   std::fputs("# t_s x y z qx qy qz qw (body = IMU in the map frame as flown: T_map_odom * T_odom_b with the map "
              "frame known at each frame's time; umsvins)\n", live_file_);
-  // The odometry per frame, read back at the end for trajectory_map.tum (a file, not memory: a
-  // flight of any length).
-  frames_ = std::tmpfile();
-  if (frames_ == nullptr) throw std::runtime_error(std::string("a temporary file for the map trajectory: ") + std::strerror(errno));
+  // No trajectory_map.tum of an earlier run may stand beside this run's outputs until finish().
+  std::error_code ignored;
+  std::filesystem::remove(map_path_, ignored);
+  // The odometry per frame, read back at the end for trajectory_map.tum: a file, not memory (a
+  // flight of any length), in the output folder (a board's /tmp may be small or read-only),
+  // unlinked at once so that nothing is left behind whatever happens.
+  const std::filesystem::path frames_path = out_dir / ".trajectory_map.frames";
+  frames_ = std::fopen(frames_path.c_str(), "w+b");
+  if (frames_ == nullptr) throw std::runtime_error(frames_path.string() + ": cannot open for writing: " + std::strerror(errno));
+  std::filesystem::remove(frames_path, ignored);
 }
 
 void LoopSession::run_on_thread(QueueFull when_full) {
@@ -143,7 +149,8 @@ std::string LoopSession::write_final_map() {
     ++map_poses_;
   }
   const bool read_ok = std::ferror(frames_) == 0;
-  if (std::fclose(f) != 0) return map_path_.string() + ": " + std::strerror(errno);
+  const bool write_ok = std::ferror(f) == 0;
+  if (std::fclose(f) != 0 || !write_ok) return map_path_.string() + ": write failed";
   return read_ok ? "" : "the temporary file of the map trajectory: read failed";
 }
 
