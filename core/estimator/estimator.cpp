@@ -267,6 +267,13 @@ void Estimator::guard_divergence(WindowFrame& f) {
   state::bg(f.sb) = last_odom_.bg;
   apply(ModeEvent::kDivergence);
   reset_window(true);
+  if (options_.estimate_extrinsic) {
+    // Extrinsics that floated into a divergence start again from the calibration, held until the
+    // window is excited again.
+    Extrinsics& x = window_->extrinsics();
+    x.set(Eigen::Isometry3d(x.calibration(0)), Eigen::Isometry3d(x.calibration(1)));
+    builder_->hold_extrinsics();
+  }
 }
 
 void Estimator::write_output(const FrameFeatures& ff, const WindowFrame& f, EstimatorOutput* out) {

@@ -62,7 +62,7 @@ struct EstimatorStats {
   std::uint64_t relocation_requests = 0;   // taken from the loop closer
   std::uint64_t relocations_solved = 0;    // with the loop keyframe's pose in the solve
   std::uint64_t relocation_residuals = 0;  // summed over those
-  // estimate_extrinsic: when the extrinsics were released (-1: never), and the largest rotation
+  // estimate_extrinsic: when the extrinsics were first released (-1: never), and the largest rotation
   // excitation of the window seen before, deg.
   std::int64_t extrinsic_released_t_ns = -1;
   double max_rotation_excitation_deg = 0.0;

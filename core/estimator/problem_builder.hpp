@@ -74,6 +74,7 @@ class ProblemBuilder {
   // With estimate_extrinsic, the extrinsics float (under their priors) in the VIO solves from
   // this call on; before, they are held at the calibration.
   void release_extrinsics() { extrinsics_released_ = true; }
+  void hold_extrinsics() { extrinsics_released_ = false; }
   bool extrinsics_released() const { return extrinsics_released_; }
 
   // Tightly coupled relocation (relocation.hpp): until clear_relocation(), every VIO solve adds
