@@ -19,7 +19,8 @@ VioPipeline::VioPipeline(const VioPipelineOptions& options, const FrontendOption
       features_(new FrameFeatures()),
       prev_left_(new std::uint8_t[static_cast<std::size_t>(capacity::kMaxImageWidth) * capacity::kMaxImageHeight]),
       prev_features_(new FrameFeatures()),
-      q_b_c0_(rig.cam[0].T_b_c.rotation()) {}
+      // cam0 in the IMU frame (the gyro's): T_b_i^-1 T_b_c.
+      q_b_c0_((rig.imu.T_b_i.inverse() * rig.cam[0].T_b_c).rotation()) {}
 
 VioPipeline::~VioPipeline() = default;
 
