@@ -21,6 +21,7 @@
 #include "board/host/mavlink_args.hpp"
 #include "board/host/replay_pipeline.hpp"
 #include "core/common/version.hpp"
+#include "core/estimator/window.hpp"
 #include "hal/replay/euroc_reader.hpp"
 #include "profiling/alloc_counter.hpp"
 #include "profiling/eval/error_budget.hpp"
@@ -167,6 +168,12 @@ void write_report(const std::string& dataset, const hal::EurocReader& reader, co
     for (const ModeChange& c : e.mode_changes) data.modes.push_back({(static_cast<double>(c.t_ns) - t0) * 1e-9, to_string(c.to)});
     const ReplayPipeline::FrameSeries& fs = pipeline.series();
     data.estimate.t_s = fs.est_t_s;
+    if (est->options().estimate_td) {
+      data.time_offset.present = true;
+      data.time_offset.t_s = fs.est_t_s;
+      data.time_offset.td_ms = fs.est_td_ms;
+      data.time_offset.calibration_ms = est->window().time_offset().calibration_s() * 1e3;
+    }
     for (const Eigen::Vector3d& p : fs.est_p_w_m)
       data.estimate.p_w_m.push_back(accuracy != nullptr ? accuracy->ate.alignment.apply(p) : p);
     if (loop != nullptr) add_loops(*loop, accuracy, t0, &data, err);

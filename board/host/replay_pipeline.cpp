@@ -27,6 +27,7 @@ EstimatorOptions estimator_options_from(const AppConfig& config, const ReplayPip
   o.focal_px = config.rig.cam[0].fx > 0.0 ? config.rig.cam[0].fx : o.focal_px;
   o.keyframe.focal_px = static_cast<float>(o.focal_px);
   o.estimate_extrinsic = config.estimate_extrinsic;
+  o.estimate_td = config.estimate_td;
   o.max_iterations_round2 = config.max_num_iterations;
   o.round2_time_s = pipeline.deterministic ? std::numeric_limits<double>::infinity() : config.max_solver_time_s;
   o.preintegration.noise = ImuNoise::from_calibration(config.rig.imu);
@@ -70,7 +71,8 @@ ReplayPipeline::ReplayPipeline(const AppConfig& config, const ReplayPipelineOpti
   vio_.set_pose_sink(&fanout_);
   vio_.set_frame_observer(this);
   // Reserved here so that recording a frame never allocates; beyond it frames are counted only.
-  for (auto* v : {&series_.t_s, &series_.frontend_ms, &series_.total_ms, &series_.backend_ms, &series_.est_t_s})
+  for (auto* v : {&series_.t_s, &series_.frontend_ms, &series_.total_ms, &series_.backend_ms, &series_.est_t_s,
+                  &series_.est_td_ms})
     v->reserve(options.report_frames);
   series_.est_p_w_m.reserve(options.report_frames);
   for (auto* v : {&series_.n_3d, &series_.n_2d_left, &series_.n_2d_right}) v->reserve(options.report_frames);
@@ -141,6 +143,7 @@ void ReplayPipeline::record_series(const VioFrameRecord& rec, const StereoFrame&
   if (rec.estimated && rec.estimate.valid && series_.est_t_s.size() < series_.est_t_s.capacity()) {
     series_.est_t_s.push_back(t_s);
     series_.est_p_w_m.push_back(rec.estimate.p_w_b);
+    series_.est_td_ms.push_back(rec.estimate.td_s * 1e3);
   }
   if (series_.t_s.size() >= series_.t_s.capacity()) {
     ++series_dropped_;
@@ -327,11 +330,30 @@ void ReplayPipeline::write_estimator_stats(JsonWriter& w) const {
       .value("relocations_solved", e.relocations_solved)
       .value("relocation_residuals", e.relocation_residuals)
       .end_object();
+  // td_ms: the calibration's (applied to the frames by the aligner); estimate_ms: the window's at
+  // the end (the same unless estimate_td).
   w.begin_object("time_offset")
       .value("td_ms", rig_td_s_ * 1e3, 4)
       .value("frames_held_for_imu", vio_.time_alignment().frames_held)
-      .end_object();
+      .value("estimated", vio_.estimator()->options().estimate_td)
+      .value("estimate_ms", vio_.estimator()->window().time_offset().value_s() * 1e3, 4)
+      .value("clamped_solves", e.td_clamped);
+  if (vio_.estimator()->options().estimate_td) write_td_series(w);
+  w.end_object();
   write_extrinsic_stats(w);
+}
+
+// The estimate once per second of the run (the first frame with a pose in each second), as
+// [t_s, td_ms] pairs: how fast and how close it settles, without the report.
+void ReplayPipeline::write_td_series(JsonWriter& w) const {
+  w.begin_array("series_t_s_td_ms");
+  double next_s = 0.0;
+  for (std::size_t i = 0; i < series_.est_t_s.size() && i < series_.est_td_ms.size(); ++i) {
+    if (series_.est_t_s[i] < next_s) continue;
+    w.begin_array(nullptr).value(nullptr, series_.est_t_s[i], 6).value(nullptr, series_.est_td_ms[i], 4).end_array();
+    next_s = std::floor(series_.est_t_s[i]) + 1.0;
+  }
+  w.end_array();
 }
 
 void ReplayPipeline::write_extrinsic_stats(JsonWriter& w) const {

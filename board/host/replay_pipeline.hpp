@@ -91,6 +91,7 @@ class ReplayPipeline final : public MeasurementSink, private FrameObserver {
     std::vector<double> backend_ms;
     std::vector<double> est_t_s;                 // frames with a pose
     std::vector<Eigen::Vector3d> est_p_w_m;      // their positions, m (not aligned)
+    std::vector<double> est_td_ms;               // their camera-IMU offset in use, ms
   };
   const FrameSeries& series() const { return series_; }
 
@@ -110,6 +111,7 @@ class ReplayPipeline final : public MeasurementSink, private FrameObserver {
   void write_drops(JsonWriter& w, const ReplaySummary& s) const;
   void write_estimator_stats(JsonWriter& w) const;
   void write_extrinsic_stats(JsonWriter& w) const;
+  void write_td_series(JsonWriter& w) const;
   void accumulate_features(const FrameFeatures& f);
 
   ReplayPipelineOptions options_;

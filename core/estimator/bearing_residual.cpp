@@ -11,6 +11,7 @@ namespace ums {
 void BearingResidual::set(Kind kind, bool same_camera, const Eigen::Vector3d& b_host,
                           const Eigen::Vector3d& b_target, double weight) {
   cache_ = nullptr;
+  has_td_ = false;
   kind_ = kind;
   same_camera_ = kind == Kind::kSameFrame ? false : same_camera;
   b_host_ = b_host.normalized();
@@ -32,9 +33,37 @@ void BearingResidual::bind(RelativePoseCache* cache, int host_slot, int host_cam
   target_cam_ = static_cast<std::int8_t>(target_cam);
 }
 
+void BearingResidual::set_time_offset(const Eigen::Vector3d& v_host, const Eigen::Vector3d& v_target,
+                                      double td_applied_s) {
+  has_td_ = true;
+  v_host_ = v_host;
+  v_target_ = v_target;
+  td_applied_s_ = td_applied_s;
+}
+
 int BearingResidual::num_blocks() const {
-  if (kind_ == Kind::kSameFrame) return 3;
-  return same_camera_ ? 4 : 5;
+  const int td = static_cast<int>(has_td_);
+  if (kind_ == Kind::kSameFrame) return 3 + td;
+  return (same_camera_ ? 4 : 5) + td;
+}
+
+void BearingResidual::shifted_bearings(const double* const* parameters, Eigen::Vector3d* b_host,
+                                       Eigen::Vector3d* b_target) const {
+  *b_host = b_host_;
+  *b_target = b_target_;
+  if (!has_td_) return;
+  const double shift_s = parameters[num_blocks() - 1][0] - td_applied_s_;
+  *b_host -= shift_s * v_host_;
+  *b_target -= shift_s * v_target_;
+}
+
+void BearingResidual::write_td_jacobian(const Eigen::Matrix<double, 2, 3>& D, const Eigen::Matrix3d& R_ct_ch,
+                                        double rho, const solver::JacobianView* jacobians) const {
+  const int k = num_blocks() - 1;
+  if (!has_td_ || !jacobians[k].wanted()) return;
+  // r = w B^T (u(P_ct) - b_t(td)): P_ct moves with the host bearing, b_t with its own velocity.
+  solver::jacobian_map<2, 1>(jacobians[k]) =
+      D * (R_ct_ch * (-v_host_ / rho)) + weight_ * (tangent_.transpose() * v_target_);
 }
 
 namespace {
@@ -63,12 +92,13 @@ Eigen::Matrix<double, 2, 3> times_hat(const Eigen::Matrix<double, 2, 3>& A, cons
 
 // The residual from the point in the target camera and, when D is given, d r / d P_ct (2x3):
 // the projection onto the unit sphere, then onto the tangent plane.
-bool BearingResidual::project(const Eigen::Vector3d& P_ct, double* residuals, Eigen::Matrix<double, 2, 3>* D) const {
+bool BearingResidual::project(const Eigen::Vector3d& P_ct, const Eigen::Vector3d& b_target, double* residuals,
+                              Eigen::Matrix<double, 2, 3>* D) const {
   const double n = P_ct.norm();
   if (!(n > 1e-9) || P_ct.dot(b_target_) <= 0.0) return false;
   const Eigen::Vector3d u = P_ct / n;
   Eigen::Map<Eigen::Vector2d> r(residuals);
-  r = weight_ * (tangent_.transpose() * (u - b_target_));
+  r = weight_ * (tangent_.transpose() * (u - b_target));
   if (!r.allFinite()) return false;
   // B^T (I - u u^T) = B^T - (B^T u) u^T.
   if (D != nullptr) *D = (weight_ / n) * (tangent_.transpose() - (tangent_.transpose() * u) * u.transpose());
@@ -77,14 +107,16 @@ bool BearingResidual::project(const Eigen::Vector3d& P_ct, double* residuals, Ei
 
 bool BearingResidual::evaluate_cached(const double* const* parameters, double* residuals,
                                       const solver::JacobianView* jacobians) const {
-  const int k_rho = num_blocks() - 1;
+  const int k_rho = rho_block();
   const double rho = parameters[k_rho][0];
   if (!(rho > 1e-6) || !std::isfinite(rho)) return false;
   const RelativePoseCache::Pair& c = cache_->pair(host_slot_, host_cam_, target_slot_, target_cam_);
-  const Eigen::Vector3d P_ch = b_host_ / rho;
+  Eigen::Vector3d b_h, b_t;
+  shifted_bearings(parameters, &b_h, &b_t);
+  const Eigen::Vector3d P_ch = b_h / rho;
   const Eigen::Vector3d P_ct = c.R_ct_ch * P_ch + c.p_ct_ch;
   Eigen::Matrix<double, 2, 3> D;
-  if (!project(P_ct, residuals, jacobians == nullptr ? nullptr : &D)) return false;
+  if (!project(P_ct, b_t, residuals, jacobians == nullptr ? nullptr : &D)) return false;
   if (jacobians == nullptr) return true;
   // The same Jacobians as evaluate()'s, from the shared products (R_ct_bt = R_b_ct^T).
   const bool want_h = jacobians[0].wanted(), want_t = jacobians[1].wanted();
@@ -104,7 +136,8 @@ bool BearingResidual::evaluate_cached(const double* const* parameters, double* r
     }
   }
   if (jacobians[k_rho].wanted())
-    solver::jacobian_map<2, 1>(jacobians[k_rho]) = D * (c.R_ct_ch * (-b_host_ / (rho * rho)));
+    solver::jacobian_map<2, 1>(jacobians[k_rho]) = D * (c.R_ct_ch * (-b_h / (rho * rho)));
+  write_td_jacobian(D, c.R_ct_ch, rho, jacobians);
   return true;
 }
 
@@ -183,7 +216,7 @@ bool BearingResidual::evaluate(const double* const* parameters, double* residual
   c.two_frames = kind_ == Kind::kTwoFrames;
   c.k_ext_h = c.two_frames ? 2 : 0;
   c.k_ext_t = c.two_frames ? (same_camera_ ? 2 : 3) : 1;
-  c.k_rho = num_blocks() - 1;
+  c.k_rho = rho_block();
   if (cache_ != nullptr && parameters[0] == cache_->frame(host_slot_) &&
       parameters[1] == cache_->frame(target_slot_) && parameters[c.k_ext_h] == cache_->extrinsic(host_cam_) &&
       parameters[c.k_ext_t] == cache_->extrinsic(target_cam_) &&
@@ -196,7 +229,9 @@ bool BearingResidual::evaluate(const double* const* parameters, double* residual
   c.ext_h = read_pose(parameters[c.k_ext_h]);
   c.ext_t = read_pose(parameters[c.k_ext_t]);
 
-  c.P_ch = b_host_ / c.rho;
+  Eigen::Vector3d b_h, b_t;
+  shifted_bearings(parameters, &b_h, &b_t);
+  c.P_ch = b_h / c.rho;
   c.P_bh = c.ext_h.R * c.P_ch + c.ext_h.p;
   if (c.two_frames) {
     c.pose_h = read_pose(parameters[0]);
@@ -207,9 +242,14 @@ bool BearingResidual::evaluate(const double* const* parameters, double* residual
     c.P_bt = c.P_bh;
   }
   c.P_ct = c.ext_t.R.transpose() * (c.P_bt - c.ext_t.p);
-  if (!project(c.P_ct, residuals, jacobians == nullptr ? nullptr : &c.D)) return false;
+  if (!project(c.P_ct, b_t, residuals, jacobians == nullptr ? nullptr : &c.D)) return false;
   if (jacobians == nullptr) return true;
-  write_jacobians(c, b_host_, jacobians);
+  write_jacobians(c, b_h, jacobians);
+  if (has_td_) {
+    Eigen::Matrix3d R_bt_bh = Eigen::Matrix3d::Identity();
+    if (c.two_frames) R_bt_bh = c.pose_t.R.transpose() * c.pose_h.R;
+    write_td_jacobian(c.D, c.ext_t.R.transpose() * R_bt_bh * c.ext_h.R, c.rho, jacobians);
+  }
   return true;
 }
 

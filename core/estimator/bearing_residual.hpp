@@ -14,6 +14,12 @@
 //   kTwoFrames, different cameras: pose_h, pose_t, T_b_ch, T_b_ct, rho
 //   kSameFrame (stereo pair):      T_b_ch, T_b_ct, rho  (the body pose cancels)
 // Poses and extrinsics are 7-double pose blocks (docs/conventions.md); Jacobians are analytic.
+//
+// With a time offset (set_time_offset, estimate_td): one more block after rho, the camera-IMU
+// offset td (1 double, s). A frame is stamped with td_applied (the offset its time was corrected
+// by); the image was in fact taken td - td_applied later, so each measured bearing is moved back
+// along its image velocity v (1/s): b(td) = b - (td - td_applied) v, host and target alike
+// (VINS-Fusion's model; first order in the offset, which the aligner keeps to a few ms).
 
 #include <cstdint>
 
@@ -39,6 +45,9 @@ class BearingResidual final : public solver::ResidualFunction {
   // rounding either way. The cache must be invalidated when blocks move (a solver with the cache as
   // its evaluation callback does it); it is written during evaluate(): one solve at a time.
   void bind(RelativePoseCache* cache, int host_slot, int host_cam, int target_slot, int target_cam);
+  // Optional, after set(): the td block is appended. v_host, v_target: the measured bearings'
+  // velocities (1/s, in their cameras); td_applied_s: the offset the frames' stamps carry.
+  void set_time_offset(const Eigen::Vector3d& v_host, const Eigen::Vector3d& v_target, double td_applied_s);
 
   int num_residuals() const override { return 2; }
   int num_blocks() const;
@@ -51,7 +60,14 @@ class BearingResidual final : public solver::ResidualFunction {
  private:
   bool evaluate_cached(const double* const* parameters, double* residuals,
                        const solver::JacobianView* jacobians) const;
-  bool project(const Eigen::Vector3d& P_ct, double* residuals, Eigen::Matrix<double, 2, 3>* D) const;
+  bool project(const Eigen::Vector3d& P_ct, const Eigen::Vector3d& b_target, double* residuals,
+               Eigen::Matrix<double, 2, 3>* D) const;
+  int rho_block() const { return num_blocks() - 1 - static_cast<int>(has_td_); }
+  // The measured bearings moved by the offset at these parameters (b_host_, b_target_ without one).
+  void shifted_bearings(const double* const* parameters, Eigen::Vector3d* b_host, Eigen::Vector3d* b_target) const;
+  // d r / d td from d r / d P_ct and the map of host-camera vectors into the target camera.
+  void write_td_jacobian(const Eigen::Matrix<double, 2, 3>& D, const Eigen::Matrix3d& R_ct_ch, double rho,
+                         const solver::JacobianView* jacobians) const;
 
   RelativePoseCache* cache_ = nullptr;
   std::int8_t host_slot_ = 0, host_cam_ = 0, target_slot_ = 0, target_cam_ = 0;
@@ -61,6 +77,10 @@ class BearingResidual final : public solver::ResidualFunction {
   Eigen::Vector3d b_target_ = Eigen::Vector3d::UnitZ();
   Eigen::Matrix<double, 3, 2> tangent_ = Eigen::Matrix<double, 3, 2>::Zero();
   double weight_ = 1.0;
+  bool has_td_ = false;
+  double td_applied_s_ = 0.0;
+  Eigen::Vector3d v_host_ = Eigen::Vector3d::Zero();    // 1/s
+  Eigen::Vector3d v_target_ = Eigen::Vector3d::Zero();  // 1/s
 };
 
 }  // namespace ums

@@ -12,8 +12,15 @@
 namespace ums {
 
 // kRelocation: the loop keyframe's pose of a tightly coupled relocation (relocation.hpp), never
-// in the prior.
-enum class BlockKind : std::uint8_t { kPose = 0, kSpeedBias = 1, kExtrinsic = 2, kLandmark = 3, kRelocation = 4 };
+// in the prior. kTimeOffset: the camera-IMU offset (time_offset.hpp), owner 0.
+enum class BlockKind : std::uint8_t {
+  kPose = 0,
+  kSpeedBias = 1,
+  kExtrinsic = 2,
+  kLandmark = 3,
+  kRelocation = 4,
+  kTimeOffset = 5
+};
 
 struct BlockName {
   BlockKind kind = BlockKind::kLandmark;

@@ -46,6 +46,8 @@ ProblemBuilderOptions builder_options(const EstimatorOptions& o) {
   b.extrinsic_sigma_rad = o.extrinsic_sigma_deg * M_PI / 180.0;
   b.baseline_sigma_m = o.baseline_sigma_m;
   b.baseline_sigma_rad = o.baseline_sigma_deg * M_PI / 180.0;
+  b.estimate_td = o.estimate_td;
+  b.td_sigma_s = o.td_sigma_ms * 1e-3;
   b.function_tolerance = o.function_tolerance;
   b.selection.budget = o.max_landmarks_in_solve;
   b.selection.share_2d = o.share_2d;
@@ -78,6 +80,7 @@ Estimator::Estimator(const EstimatorOptions& options, const RigCalibration& rig)
       nav_(Eigen::Vector3d(0.0, 0.0, -options.gravity_m_s2)) {
   window_->extrinsics().set(rig.imu.T_b_i.inverse() * rig.cam[0].T_b_c, rig.imu.T_b_i.inverse() * rig.cam[1].T_b_c);
   window_->extrinsics().set_floating(options_.estimate_extrinsic);
+  window_->time_offset().set(rig.td_s);
   builder_ = std::make_unique<ProblemBuilder>(builder_options(options_), window_.get(), landmarks_.get(),
                                               marginalizer_.get(), &stats_);
   initializer_ = std::make_unique<Initializer>(options_, rig_, window_.get(), landmarks_.get(), builder_.get(),
@@ -226,10 +229,12 @@ Eigen::Matrix3d Estimator::c0_from_c1() const {
 void Estimator::observe(const FrameFeatures& ff, WindowFrame& f, const StandstillResult& rest) {
   window_->push_next();
   const int slot = window_->slot_of(f);
-  stats_.drops_landmarks += static_cast<std::uint64_t>(landmarks_->ingest(ff, slot, c0_from_c1()));
+  const int n = window_->size();
+  const int prev_slot = n >= 2 ? window_->slot_at(n - 2) : -1;
+  const double dt_s = n >= 2 ? 1e-9 * static_cast<double>(f.t_ns - window_->at(n - 2).t_ns) : 0.0;
+  stats_.drops_landmarks += static_cast<std::uint64_t>(landmarks_->ingest(ff, slot, c0_from_c1(), prev_slot, dt_s));
   // The IMU alone cannot tell rest from uniform motion (both read gravity and no rotation): when
   // the images can tell, they must agree that nothing moves.
-  const int n = window_->size();
   if (f.still && n >= 2) {
     const float flow_px = initializer_->visual_flow_px(window_->slot_at(n - 2), slot, rest.mean_gyro_rad_s);
     if (flow_px > static_cast<float>(options_.still_max_flow_px)) {
@@ -274,6 +279,9 @@ void Estimator::guard_divergence(WindowFrame& f) {
     x.set(Eigen::Isometry3d(x.calibration(0)), Eigen::Isometry3d(x.calibration(1)));
     builder_->hold_extrinsics();
   }
+  if (options_.estimate_td) {
+    window_->time_offset().reset();  // an offset that floated into a divergence is not trusted
+  }
 }
 
 void Estimator::write_output(const FrameFeatures& ff, const WindowFrame& f, EstimatorOutput* out) {
@@ -288,6 +296,7 @@ void Estimator::write_output(const FrameFeatures& ff, const WindowFrame& f, Esti
   o.valid = mode_ != EstimatorMode::kImuOnly || (attitude_known_ && velocity_known_);
   if (!o.valid) ++stats_.frames_without_pose;
   o.keyframe = f.keyframe;
+  o.td_s = window_->time_offset().value_s();
   last_odom_ = nav_from_blocks(f.pose, f.sb);
   o.p_w_b = odom_.p_w(last_odom_.p_w_b);
   o.q_w_b = odom_.q_w(last_odom_.q_w_b);

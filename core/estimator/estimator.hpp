@@ -73,6 +73,7 @@ struct EstimatorOutput {
   int landmarks_in_solve = 0;
   int n_3d_used = 0, n_2d_left_used = 0, n_2d_right_used = 0;  // landmarks of each class solved
   bool still = false;                // the IMU said: at rest
+  double td_s = 0.0;                 // s, the camera-IMU offset in use (estimated with estimate_td)
   // Output discontinuities so far: restarts (divergence, vision lost), re-levelling of the world
   // (entering VIO) and moves of the odometry frame. A consumer that fuses the pose (a flight
   // controller: MAVLink reset_counter) resets its reference when this changes.
@@ -113,6 +114,7 @@ class Estimator {
 
   EstimatorMode mode() const { return mode_; }
   const EstimatorStats& stats() const { return stats_; }
+  const EstimatorOptions& options() const { return options_; }  // as validated and prepared
   // The IMU-rate pose: the last frame's estimate propagated with every sample since.
   bool imu_rate_state(NavState* state) const;
   // Where keyframes leaving the window go (nullptr: nowhere); the sink outlives the estimator.

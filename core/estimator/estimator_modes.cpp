@@ -126,6 +126,7 @@ void Estimator::frame_vio(WindowFrame& f, EstimatorTiming* timing) {
   const Eigen::Isometry3d T_b0_loop = relocating ? window_->T_w_b(window_->slot_at(0)).inverse() * builder_->relocation_pose()
                                                  : Eigen::Isometry3d::Identity();
   hold_gauge(T_w_b0_before);
+  if (options_.estimate_td && window_->time_offset().clamp(options_.td_max_change_ms * 1e-3)) ++stats_.td_clamped;
   if (relocating) end_relocation(T_b0_loop, spec);
 }
 

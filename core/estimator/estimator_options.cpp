@@ -47,6 +47,8 @@ void EstimatorOptions::validate() const {
   require(extrinsic_sigma_deg > 0.0, "extrinsic_sigma_deg", extrinsic_sigma_deg);
   require(baseline_sigma_m > 0.0, "baseline_sigma_m", baseline_sigma_m);
   require(baseline_sigma_deg > 0.0, "baseline_sigma_deg", baseline_sigma_deg);
+  require(td_sigma_ms > 0.0, "td_sigma_ms", td_sigma_ms);
+  require(td_max_change_ms > 0.0, "td_max_change_ms", td_max_change_ms);
   preintegration.validate();
   keyframe.validate();
   standstill.validate();

@@ -26,6 +26,12 @@ struct EstimatorOptions {
   double extrinsic_release_deg = 1.0;
   double extrinsic_sigma_m = 0.05, extrinsic_sigma_deg = 3.0;
   double baseline_sigma_m = 0.0005, baseline_sigma_deg = 0.05;
+  // Estimate the camera-IMU time offset (t_imu = t_cam + td) in the VIO solves, starting from the
+  // calibration's td (which the pipeline has already applied to the frames) under a prior of
+  // td_sigma_ms, and kept within td_max_change_ms of it (time_offset.hpp).
+  bool estimate_td = false;
+  double td_sigma_ms = 50.0;
+  double td_max_change_ms = 30.0;
   PreintegrationOptions preintegration;  // noise: set from the rig calibration by the caller
   double imu_noise_inflation = 2.0;   // 1, multiplies the calibrated white-noise densities:
                                       // unmodelled vibration and timing (VINS-Fusion: EuRoC ~10x)

@@ -66,6 +66,7 @@ struct EstimatorStats {
   // excitation of the window seen before, deg.
   std::int64_t extrinsic_released_t_ns = -1;
   double max_rotation_excitation_deg = 0.0;
+  std::uint64_t td_clamped = 0;  // estimate_td: VIO solves whose offset left td_max_change_ms
 };
 
 }  // namespace ums

@@ -19,6 +19,13 @@ struct LandmarkObservation {
   bool has_right = false;
   Eigen::Vector3f bearing_left = Eigen::Vector3f::UnitZ();   // unit, cam0
   Eigen::Vector3f bearing_right = Eigen::Vector3f::UnitZ();  // unit, cam1
+  // 1/s, the bearing's rate of change at this frame (landmark_map.cpp: central difference over the
+  // frames before and after, one-sided at the ends of a track, zero for a single sighting): moves
+  // the measurement to another time by the camera-IMU offset being estimated (estimate_td).
+  Eigen::Vector3f velocity_left = Eigen::Vector3f::Zero();
+  Eigen::Vector3f velocity_right = Eigen::Vector3f::Zero();
+  bool has_rate_left = false;   // velocity_left holds a backward difference (from the frame before)
+  bool has_rate_right = false;
 };
 
 enum class LandmarkGroup : std::uint8_t { k3D = 0, k2DLeft = 1, k2DRight = 2 };

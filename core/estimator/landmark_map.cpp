@@ -47,7 +47,38 @@ bool LandmarkMap::too_far_for_stereo(const FeatureObservation& o, const Eigen::M
   return parallax_rad < options_.min_stereo_parallax_rad;
 }
 
-int LandmarkMap::ingest(const FrameFeatures& ff, int slot, const Eigen::Matrix3d& R_c0_c1) {
+namespace {
+
+// One camera's bearing rate between consecutive frames: the new observation gets the backward
+// difference; the previous one the mean of its backward difference and this one (a central
+// difference, centred on its own time), or this one alone when it was the track's first (often
+// the landmark's host: a host without a rate would leave its ray unmoved by the offset).
+void difference(const Eigen::Vector3f& b_prev, const Eigen::Vector3f& b_new, float inv_dt, bool prev_had_rate,
+                Eigen::Vector3f* v_prev, Eigen::Vector3f* v_new) {
+  *v_new = (b_new - b_prev) * inv_dt;
+  *v_prev = prev_had_rate ? Eigen::Vector3f(0.5f * (*v_prev + *v_new)) : *v_new;
+}
+
+// The bearing rates of `ob` (and the central ones of `last`) when the landmark's previous
+// observation was in prev_slot, the frame before.
+void set_velocities(LandmarkObservation* last, int prev_slot, double dt_s, LandmarkObservation* ob) {
+  ob->velocity_left.setZero();
+  ob->velocity_right.setZero();
+  if (last == nullptr || last->slot != prev_slot || !(dt_s > 0.0)) return;
+  const float inv_dt = static_cast<float>(1.0 / dt_s);
+  if (last->has_left && ob->has_left)
+    difference(last->bearing_left, ob->bearing_left, inv_dt, last->has_rate_left, &last->velocity_left, &ob->velocity_left);
+  if (last->has_right && ob->has_right)
+    difference(last->bearing_right, ob->bearing_right, inv_dt, last->has_rate_right, &last->velocity_right,
+               &ob->velocity_right);
+  ob->has_rate_left = last->has_left && ob->has_left;
+  ob->has_rate_right = last->has_right && ob->has_right;
+}
+
+}  // namespace
+
+int LandmarkMap::ingest(const FrameFeatures& ff, int slot, const Eigen::Matrix3d& R_c0_c1, int prev_slot,
+                        double dt_s) {
   int dropped = 0;
   for (const FeatureObservation& o : ff.features) {
     const bool far = too_far_for_stereo(o, R_c0_c1);
@@ -65,12 +96,14 @@ int LandmarkMap::ingest(const FrameFeatures& ff, int slot, const Eigen::Matrix3d
     }
     Landmark& l = at_pool(idx);
     if (l.n_obs >= capacity::kMaxObservationsPerLandmark) continue;  // cannot happen: one per frame
+    LandmarkObservation* last = l.n_obs > 0 ? &l.obs[l.n_obs - 1] : nullptr;
     LandmarkObservation& ob = l.obs[l.n_obs++];
     ob.slot = static_cast<std::uint8_t>(slot);
     ob.has_left = o.has_left();
     ob.has_right = o.has_right() && !far;
     ob.bearing_left = o.bearing_left;
     ob.bearing_right = o.bearing_right;
+    set_velocities(last, prev_slot, dt_s, &ob);
     if (o.cls == FeatureClass::k3D && !far) l.stereo = true;
     l.track_length = o.track_length;
     // A host seen only on the right and later on the left keeps its right host (ids of 2D-right

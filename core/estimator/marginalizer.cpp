@@ -16,6 +16,13 @@ Marginalizer::Marginalizer()
 
 Marginalizer::~Marginalizer() = default;
 
+namespace {
+
+// A frame's pose or speed-bias (the prior's other blocks belong to the rig).
+bool is_frame_block(const BlockName& nm) { return nm.kind == BlockKind::kPose || nm.kind == BlockKind::kSpeedBias; }
+
+}  // namespace
+
 bool Marginalizer::empty() const { return prior_->empty(); }
 void Marginalizer::clear() { prior_->clear(); }
 int Marginalizer::num_blocks() const { return prior_->num_blocks(); }
@@ -34,7 +41,7 @@ bool Marginalizer::adopt(solver::Problem& problem, const BlockTable& table, cons
 
 bool Marginalizer::holds_frame(FrameId id) const {
   for (int i = 0; i < prior_->num_blocks(); ++i)
-    if (names_[i].kind != BlockKind::kExtrinsic && names_[i].owner == id) return true;
+    if (is_frame_block(names_[i]) && names_[i].owner == id) return true;
   return false;
 }
 
@@ -46,6 +53,8 @@ bool Marginalizer::marginalize_frame(FrameId id, Window& window, solver::Problem
     const BlockName& nm = names_[i];
     if (nm.kind == BlockKind::kExtrinsic) {
       problem.add_pose_block(window.extrinsics().block(static_cast<int>(nm.owner)), &ids[i]);
+    } else if (nm.kind == BlockKind::kTimeOffset) {
+      problem.add_euclidean_block(window.time_offset().block(), 1, &ids[i]);
     } else {
       WindowFrame& f = window.slot(window.slot_of_id(nm.owner));
       if (nm.kind == BlockKind::kSpeedBias) {
@@ -60,7 +69,7 @@ bool Marginalizer::marginalize_frame(FrameId id, Window& window, solver::Problem
   solver::BlockId marg[2];
   int n = 0;
   for (int i = 0; i < prior_->num_blocks(); ++i)
-    if (names_[i].kind != BlockKind::kExtrinsic && names_[i].owner == id) marg[n++] = ids[i];
+    if (is_frame_block(names_[i]) && names_[i].owner == id) marg[n++] = ids[i];
   return adopt(problem, *table, marg, n);
 }
 

@@ -83,6 +83,10 @@ int ProblemBuilder::build(const SolveSpec& spec) {
   stats_->peak_residuals = std::max(stats_->peak_residuals, static_cast<std::size_t>(n_visual_));
   if (spec.imu) add_imu_terms();
   if (extrinsics_float(spec)) add_extrinsic_priors();
+  if (options_.estimate_td && spec.imu) {
+    td_prior_.set(window_->time_offset().calibration_s(), options_.td_sigma_s);
+    problem_->add_residual(&td_prior_, solver::RobustLoss::trivial(), {td_id_});
+  }
   if (spec.prior && !marginalizer_->empty()) add_marginal_prior();
   return n_selected_;
 }
@@ -104,7 +108,16 @@ void ProblemBuilder::add_state_blocks(const SolveSpec& spec) {
     table_.note(ext_id_[c], BlockKind::kExtrinsic, static_cast<std::uint32_t>(c));
     P.set_constant(ext_id_[c], !extrinsics_float(spec));
   }
+  if (options_.estimate_td) {
+    P.add_euclidean_block(w.time_offset().block(), 1, &td_id_);
+    table_.note(td_id_, BlockKind::kTimeOffset, 0);
+    P.set_constant(td_id_, !spec.imu);
+  }
   if (spec.fix_first_pose && w.size() > 0) P.set_constant(pose_id_[w.slot_at(0)], true);
+}
+
+EdgeTimeOffset ProblemBuilder::edge_time_offset() const {
+  return EdgeTimeOffset{options_.estimate_td, window_->time_offset().calibration_s()};
 }
 
 void ProblemBuilder::add_landmarks(std::uint8_t groups) {
@@ -132,6 +145,7 @@ int ProblemBuilder::block_id(const EdgeBlock& b, int lm_block) const {
   switch (b.kind) {
     case EdgeBlock::kPose: return pose_id_[b.index];
     case EdgeBlock::kExtrinsic: return ext_id_[b.index];
+    case EdgeBlock::kTimeOffset: return td_id_;
     case EdgeBlock::kInverseDepth: break;
   }
   return lm_block;
@@ -143,9 +157,9 @@ bool ProblemBuilder::add_landmark_edges(int pool_idx, int lm_block) {
   const double w = l.stereo ? options_.weight_3d : options_.weight_2d;
   for_each_visual_edge(l, [&](const VisualEdge& e) {
     BearingResidual& r = visual_[n_visual_];
-    EdgeBlock blocks[5];
-    const int nb = setup_visual_edge(l, e, w, pose_cache_.get(), &r, blocks);
-    solver::BlockId ids[5];
+    EdgeBlock blocks[kMaxEdgeBlocks];
+    const int nb = setup_visual_edge(l, e, w, pose_cache_.get(), &r, blocks, edge_time_offset());
+    solver::BlockId ids[kMaxEdgeBlocks];
     for (int i = 0; i < nb; ++i) ids[i] = block_id(blocks[i], lm_block);
     if (problem_->add_residual(&r, huber, ids, nb) != solver::SolverStatus::kOk) {
       ++stats_->drops_residuals;
@@ -197,6 +211,11 @@ void ProblemBuilder::add_marginal_prior() {
     const BlockName& nm = marginalizer_->name(i);
     if (nm.kind == BlockKind::kExtrinsic) {
       ids[i] = ext_id_[nm.owner];
+      continue;
+    }
+    if (nm.kind == BlockKind::kTimeOffset) {
+      ids[i] = td_id_;
+      ok = td_id_ >= 0;
       continue;
     }
     const int s = window_->slot_of_id(nm.owner);
@@ -334,14 +353,15 @@ int ProblemBuilder::mark_outliers() {
     bool bad = false;
     for_each_visual_edge(l, [&](const VisualEdge& e) {
       BearingResidual r;
-      EdgeBlock blocks[5];
-      const int nb = setup_visual_edge(l, e, 1.0, pose_cache_.get(), &r, blocks);
-      const double* params[5];
+      EdgeBlock blocks[kMaxEdgeBlocks];
+      const int nb = setup_visual_edge(l, e, 1.0, pose_cache_.get(), &r, blocks, edge_time_offset());
+      const double* params[kMaxEdgeBlocks];
       for (int b = 0; b < nb; ++b) {
         const EdgeBlock& eb = blocks[b];
-        params[b] = eb.kind == EdgeBlock::kPose        ? window_->slot(eb.index).pose
-                    : eb.kind == EdgeBlock::kExtrinsic ? window_->extrinsics().block(eb.index)
-                                                       : &l.inv_depth;
+        params[b] = eb.kind == EdgeBlock::kPose         ? window_->slot(eb.index).pose
+                    : eb.kind == EdgeBlock::kExtrinsic  ? window_->extrinsics().block(eb.index)
+                    : eb.kind == EdgeBlock::kTimeOffset ? window_->time_offset().block()
+                                                        : &l.inv_depth;
       }
       double err = 0.0;
       bad = !r.error_rad(params, &err) || err > options_.outlier_rad;

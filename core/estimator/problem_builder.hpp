@@ -38,6 +38,8 @@ struct ProblemBuilderOptions {
   bool estimate_extrinsic = false;
   double extrinsic_sigma_m = 0.05, extrinsic_sigma_rad = 0.05;   // prior around the calibration
   double baseline_sigma_m = 0.0005, baseline_sigma_rad = 0.001;  // the stereo pair's relative pose
+  bool estimate_td = false;  // the time offset floats in the VIO solves (time_offset.hpp)
+  double td_sigma_s = 0.05;  // s, prior around the calibration's td
   double function_tolerance = 1e-3;
   SelectionPolicy selection;
   double still_sigma_m = 0.002, still_sigma_rad = 0.001, still_sigma_v = 0.01;
@@ -109,6 +111,7 @@ class ProblemBuilder {
   bool extrinsics_float(const SolveSpec& spec) const {
     return options_.estimate_extrinsic && extrinsics_released_ && spec.imu;
   }
+  EdgeTimeOffset edge_time_offset() const;
   void add_marginal_prior();
   void add_relocation_terms();
   // The request's matches whose landmarks qualify (see set_relocation), as match indices.
@@ -132,6 +135,7 @@ class ProblemBuilder {
   int pose_id_[Window::kSlots] = {};
   int sb_id_[Window::kSlots] = {};
   int ext_id_[2] = {};
+  int td_id_ = -1;  // with estimate_td
   SpeedBiasPrior init_prior_;
   FrameId init_prior_frame_ = kNoFrame;
   SpeedBiasPrior zero_velocity_;
@@ -139,6 +143,7 @@ class ProblemBuilder {
   bool extrinsics_released_ = false;
   PosePrior extrinsic_prior_[2];
   RelativePosePrior baseline_prior_;
+  ScalarPrior td_prior_;
   const RelocationRequest* relocation_ = nullptr;
   double relocation_pose_[state::kPoseSize] = {};
   std::unique_ptr<BearingResidual[]> relocation_res_;

@@ -1,5 +1,7 @@
 #include "core/estimator/state_residuals.hpp"
 
+#include <cmath>
+
 #include <Eigen/Geometry>
 
 #include "core/math/so3.hpp"
@@ -107,6 +109,12 @@ bool RelativePosePrior::evaluate(const double* const* x, double* r, const solver
     J.bottomRightCorner<3, 3>() = w_r_ * Jr_inv;
   }
   return res.allFinite();
+}
+
+bool ScalarPrior::evaluate(const double* const* x, double* r, const solver::JacobianView* jac) const {
+  r[0] = w_ * (x[0][0] - x0_);
+  if (jac != nullptr && jac[0].wanted()) solver::jacobian_map<1, 1>(jac[0])(0, 0) = w_;
+  return std::isfinite(r[0]);
 }
 
 }  // namespace ums

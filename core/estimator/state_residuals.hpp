@@ -10,6 +10,8 @@
 //    and radians: the calibration's extrinsics when they float (estimate_extrinsic).
 //  - RelativePosePrior: two pose blocks keep a relative pose T_a_b (R_a^T (p_b - p_a) - t_ab,
 //    Log(q_ab^-1 q_a^-1 q_b)): the stereo pair's calibrated baseline while the extrinsics float.
+//  - ScalarPrior: a 1-double block around a target, (x - x0) / sigma: the calibration's time
+//    offset when it floats (estimate_td).
 // Pose blocks are [p, q] with q perturbed on the right: q Exp(d).
 
 #include <Eigen/Core>
@@ -66,6 +68,20 @@ class RelativePosePrior final : public solver::ResidualFunction {
   Eigen::Vector3d t_ab_ = Eigen::Vector3d::Zero();
   Eigen::Quaterniond q_ab_ = Eigen::Quaterniond::Identity();
   double w_p_ = 1.0, w_r_ = 1.0;
+};
+
+class ScalarPrior final : public solver::ResidualFunction {
+ public:
+  void set(double x0, double sigma) {
+    x0_ = x0;
+    w_ = 1.0 / sigma;
+  }
+  int num_residuals() const override { return 1; }
+  bool evaluate(const double* const* x, double* r, const solver::JacobianView* jac) const override;
+
+ private:
+  double x0_ = 0.0;
+  double w_ = 1.0;
 };
 
 }  // namespace ums

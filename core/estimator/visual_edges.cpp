@@ -4,8 +4,16 @@
 
 namespace ums {
 
+namespace {
+
+Eigen::Vector3d velocity(const LandmarkObservation& o, int cam) {
+  return (cam == 0 ? o.velocity_left : o.velocity_right).cast<double>();
+}
+
+}  // namespace
+
 int setup_visual_edge(const Landmark& l, const VisualEdge& e, double w, RelativePoseCache* cache,
-                      BearingResidual* r, EdgeBlock* blocks) {
+                      BearingResidual* r, EdgeBlock* blocks, const EdgeTimeOffset& td) {
   const LandmarkObservation& o = l.obs[e.obs];
   const int h = l.host_slot;
   int nb = 0;
@@ -23,6 +31,12 @@ int setup_visual_edge(const Landmark& l, const VisualEdge& e, double w, Relative
     if (!same_cam) blocks[nb++] = EdgeBlock{EdgeBlock::kExtrinsic, e.cam};
   }
   blocks[nb++] = EdgeBlock{EdgeBlock::kInverseDepth, 0};
+  if (td.on) {
+    const int ho = l.find_obs(h);
+    const Eigen::Vector3d v_host = ho < 0 ? Eigen::Vector3d::Zero() : velocity(l.obs[ho], l.host_cam);
+    r->set_time_offset(v_host, velocity(o, e.cam), td.td_applied_s);
+    blocks[nb++] = EdgeBlock{EdgeBlock::kTimeOffset, 0};
+  }
   return nb;
 }
 

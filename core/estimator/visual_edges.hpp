@@ -17,8 +17,16 @@ class RelativePoseCache;
 // A parameter block an edge reads, named by what it is (the caller maps it to a solver id or to
 // the values).
 struct EdgeBlock {
-  enum Kind : std::uint8_t { kPose, kExtrinsic, kInverseDepth } kind = kPose;
+  enum Kind : std::uint8_t { kPose, kExtrinsic, kInverseDepth, kTimeOffset } kind = kPose;
   int index = 0;  // window slot for kPose, camera for kExtrinsic
+};
+// The most blocks an edge reads (two poses, two extrinsics, inverse depth, time offset).
+inline constexpr int kMaxEdgeBlocks = 6;
+
+// Whether edges read the time offset block (estimate_td) and the offset the frames carry.
+struct EdgeTimeOffset {
+  bool on = false;
+  double td_applied_s = 0.0;  // s
 };
 
 struct VisualEdge {
@@ -46,9 +54,10 @@ void for_each_visual_edge(const Landmark& l, Visitor&& visit) {
 }
 
 // Sets r up for edge e of landmark l with whitening weight w (1/rad; cache: optional, for
-// two-frame edges) and writes the blocks it reads, in the residual's order; returns their count.
+// two-frame edges) and writes the blocks it reads (at most kMaxEdgeBlocks), in the residual's
+// order; returns their count. With td.on the edge also reads the time offset (last).
 int setup_visual_edge(const Landmark& l, const VisualEdge& e, double w, RelativePoseCache* cache,
-                      BearingResidual* r, EdgeBlock* blocks);
+                      BearingResidual* r, EdgeBlock* blocks, const EdgeTimeOffset& td = {});
 
 // Observation rays of a landmark (left and right per observation): at least two to be solved.
 int count_rays(const Landmark& l);

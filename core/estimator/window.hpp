@@ -13,6 +13,7 @@
 #include "core/common/capacity.hpp"
 #include "core/common/state_layout.hpp"
 #include "core/estimator/extrinsics.hpp"
+#include "core/estimator/time_offset.hpp"
 #include "core/estimator/frame_id.hpp"
 #include "core/estimator/imu_factor.hpp"
 #include "core/imu/preintegration.hpp"
@@ -72,6 +73,8 @@ class Window {
 
   Extrinsics& extrinsics() { return extrinsics_; }
   const Extrinsics& extrinsics() const { return extrinsics_; }
+  TimeOffset& time_offset() { return time_offset_; }
+  const TimeOffset& time_offset() const { return time_offset_; }
 
  private:
   std::unique_ptr<WindowFrame[]> slots_;
@@ -80,6 +83,7 @@ class Window {
   int next_slot_ = 0;
   FrameId next_id_ = 0;
   Extrinsics extrinsics_;
+  TimeOffset time_offset_;
 };
 
 }  // namespace ums

@@ -14,6 +14,7 @@ void save_window(const Window& window, const LandmarkMap& landmarks, WindowBacku
     const double* x = window.extrinsics().block(c);
     std::copy(x, x + state::kPoseSize, b->extrinsic[c]);
   }
+  b->td_s = window.time_offset().value_s();
   landmarks.save_depths(&b->depths);
 }
 
@@ -25,6 +26,7 @@ void restore_window(const WindowBackup& b, Window* window, LandmarkMap* landmark
   }
   for (int c = 0; c < 2; ++c) std::copy(b.extrinsic[c], b.extrinsic[c] + state::kPoseSize, window->extrinsics().block(c));
   window->extrinsics().sync();
+  window->time_offset().block()[0] = b.td_s;
   landmarks->restore_depths(b.depths);
 }
 

@@ -13,6 +13,7 @@ struct WindowBackup {
   double pose[Window::kSlots][state::kPoseSize];
   double sb[Window::kSlots][state::kSbSize];
   double extrinsic[2][state::kPoseSize];
+  double td_s = 0.0;
   LandmarkMap::DepthBackup depths;
 };
 

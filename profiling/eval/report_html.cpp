@@ -377,6 +377,15 @@ std::string render_report_html(const ReportData& d) {
     o << "<h2>Error budget</h2><div class='row'>" << budget_chart(d.budget, d.modes, d.end_t_s) << "<div>"
       << budget_table(d.budget) << "</div></div>\n";
   }
+  if (d.time_offset.present) {
+    const ReportTimeOffset& td = d.time_offset;
+    std::vector<Series> s;
+    if (!td.t_s.empty())
+      s.push_back({{td.t_s.front(), td.t_s.back()}, {td.calibration_ms, td.calibration_ms}, kColorGt, "calibration", false});
+    s.push_back({td.t_s, td.td_ms, kColorEst, "estimate", false});
+    o << "<h2>Camera-IMU time offset</h2><div class='row'>"
+      << line_chart("td over time (t_imu = t_cam + td)", "t [s]", "td [ms]", s, false, 1120, 300) << "</div>\n";
+  }
   o << "<h2>Timing per stage</h2><div class='row'>";
   for (std::size_t i = 0; i < d.stage_timings.size(); ++i) o << histogram(d.stage_timings[i], kPalette[i % 8]);
   if (d.stage_timings.empty()) o << "<p>no timing recorded</p>";

@@ -67,6 +67,15 @@ struct ReportLoop {
   bool relocalization = false;
 };
 
+// The camera-IMU time offset over the run (estimate_td): the estimate per frame with a pose and
+// the calibration's value it started from.
+struct ReportTimeOffset {
+  bool present = false;
+  std::vector<double> t_s;            // s, on the clock of ReportData::modes
+  std::vector<double> td_ms;          // ms, t_imu = t_cam + td
+  double calibration_ms = 0.0;        // ms
+};
+
 struct ReportData {
   std::string title = "UMS-VINS run";
   std::vector<std::pair<std::string, std::string>> summary;  // key/value table at the top
@@ -83,6 +92,7 @@ struct ReportData {
   std::vector<ReportModeChange> modes;  // sorted by t_s
   double end_t_s = 0.0;               // s, end of the run (closes the last mode span)
   ReportBudget budget;                // section shown only when present
+  ReportTimeOffset time_offset;       // section shown only when present
 };
 
 // The whole document as a string.

@@ -145,3 +145,82 @@ TEST_CASE("bearing residual bound to the pose cache: same values and Jacobians, 
     }
   }
 }
+
+TEST_CASE("bearing residual with a time offset: bearings moved along their velocities, zero at the true offset",
+          "[estimator][td]") {
+  Scene s;
+  const double w = 460.0 / 1.5;
+  // The images were taken 12 ms after the frames' stamps (td 12 ms, the stamps corrected by 0):
+  // each measured bearing is the true one 12 ms later, b + 0.012 v.
+  const double td_true_s = 0.012, td_applied_s = 0.0;
+  const Eigen::Vector3d v_host(0.4, -0.2, -0.02);  // 1/s, about 0.45 rad/s of image motion
+  const Eigen::Vector3d v_target(-0.3, 0.5, 0.01);
+  const Eigen::Vector3d b_host_meas = (s.b_host + td_true_s * v_host).normalized();
+  auto cache = std::make_unique<ums::RelativePoseCache>();
+  cache->bind_frame(3, s.pose_h);
+  cache->bind_frame(7, s.pose_t);
+  cache->bind_extrinsic(0, s.ext0);
+  cache->bind_extrinsic(1, s.ext1);
+
+  for (const bool same_cam : {true, false}) {
+    const double* ext_t = same_cam ? s.ext0 : s.ext1;
+    const Eigen::Vector3d b_t_meas = s.truth(false, ext_t) + td_true_s * v_target;
+    // The host bearing's shift is first order: the landmark sits on the moved ray.
+    ums::BearingResidual r;
+    r.set(ums::BearingResidual::Kind::kTwoFrames, same_cam, b_host_meas, b_t_meas.normalized(), w);
+    r.set_time_offset(v_host, v_target, td_applied_s);
+    CHECK(r.num_blocks() == (same_cam ? 5 : 6));
+    double td = td_true_s;
+    const double* p5[] = {s.pose_h, s.pose_t, s.ext0, &s.rho, &td};
+    const double* p6[] = {s.pose_h, s.pose_t, s.ext0, s.ext1, &s.rho, &td};
+    const double* const* p = same_cam ? p5 : p6;
+    double err_true = 0.0, err_zero = 0.0;
+    REQUIRE(r.error_rad(p, &err_true));
+    td = 0.0;
+    REQUIRE(r.error_rad(p, &err_zero));
+    // At the true offset only second-order terms are left (|0.012 v|^2 ~ 3e-5 rad ~ 0.01 px);
+    // ignoring it leaves about 0.012 * |v_t - v_h moved| ~ 7 mrad (3 px).
+    CHECK(err_true * 460.0 < 0.05);
+    CHECK(err_zero * 460.0 > 1.0);
+    td = 0.005;
+    std::vector<ums::test::BlockSpec> blocks = {{s.pose_h, 7, true}, {s.pose_t, 7, true}, {s.ext0, 7, true}};
+    if (!same_cam) blocks.push_back({s.ext1, 7, true});
+    blocks.push_back({&s.rho, 1, false});
+    blocks.push_back({&td, 1, false});
+    CHECK(ums::test::max_jacobian_error(r, blocks) < 1e-6);
+    // The cached path (poses from the pose cache) gives the same residual and td Jacobian.
+    ums::BearingResidual bound = r;
+    bound.bind(cache.get(), 3, 0, 7, same_cam ? 0 : 1);
+    cache->prepare_for_evaluation();
+    const int nb = r.num_blocks();
+    double jp[6][12] = {}, jb[6][12] = {};
+    ums::solver::JacobianView vp[6], vb[6];
+    for (int k = 0; k < nb; ++k) {
+      const bool want = k < 2 || k >= nb - 2;  // poses, inverse depth, td (extrinsics constant)
+      const int cols = k >= nb - 2 ? 1 : 6;
+      vp[k] = {want ? jp[k] : nullptr, cols};
+      vb[k] = {want ? jb[k] : nullptr, cols};
+    }
+    double rp[2], rb[2];
+    REQUIRE(r.evaluate(p, rp, vp));
+    REQUIRE(bound.evaluate(p, rb, vb));
+    CHECK(std::abs(rp[0] - rb[0]) < 1e-9);
+    CHECK(std::abs(rp[1] - rb[1]) < 1e-9);
+    CHECK(std::abs(jp[nb - 1][0] - jb[nb - 1][0]) < 1e-8);
+    CHECK(std::abs(jp[nb - 1][1] - jb[nb - 1][1]) < 1e-8);
+  }
+  SECTION("stereo pair of the host frame") {
+    const Eigen::Vector3d b_t_meas = s.truth(true, s.ext1) + td_true_s * v_target;
+    ums::BearingResidual r;
+    r.set(ums::BearingResidual::Kind::kSameFrame, false, b_host_meas, b_t_meas.normalized(), w);
+    r.set_time_offset(v_host, v_target, td_applied_s);
+    double td = td_true_s;
+    const double* p[] = {s.ext0, s.ext1, &s.rho, &td};
+    double err = 0.0;
+    REQUIRE(r.error_rad(p, &err));
+    CHECK(err * 460.0 < 0.05);
+    td = -0.004;
+    CHECK(ums::test::max_jacobian_error(r, {{s.ext0, 7, true}, {s.ext1, 7, true}, {&s.rho, 1, false}, {&td, 1, false}}) <
+          1e-6);
+  }
+}

@@ -147,3 +147,56 @@ TEST_CASE("LandmarkMap: a stereo match with too little disparity enters as a 2D-
   CHECK(far.obs[0].has_left);
   CHECK_FALSE(far.obs[0].has_right);
 }
+
+TEST_CASE("LandmarkMap: bearing velocities, central inside a track, one-sided at its ends, zero unseen before",
+          "[estimator][landmarks][td]") {
+  Scene s;
+  ums::LandmarkMap map{ums::LandmarkMapOptions()};
+  // A left feature whose bearing turns at 0.5 rad/s about y, with 0.2 rad/s^2 of angular
+  // acceleration, seen in four frames 1/30 s apart; feature 2 from the third frame on.
+  const double dt_s = 1.0 / 30.0;
+  auto bearing = [](double t_s) {
+    const double a = 0.5 * t_s + 0.1 * t_s * t_s;
+    return Eigen::Vector3f(static_cast<float>(std::sin(a)), 0.0f, static_cast<float>(std::cos(a)));
+  };
+  int slots[4];
+  for (int k = 0; k < 4; ++k) {
+    ums::WindowFrame& f = s.window.next();
+    s.window.push_next();
+    slots[k] = s.window.slot_of(f);
+    s.window.choose_next_slot();
+    s.ff->features.clear();
+    ums::FeatureObservation o;
+    o.id = 1;
+    o.bearing_left = bearing(k * dt_s);
+    s.ff->features.push_back(o);
+    if (k >= 2) {
+      o.id = 2;
+      s.ff->features.push_back(o);
+    }
+    map.ingest(*s.ff, slots[k], Eigen::Matrix3d::Identity(), k > 0 ? slots[k - 1] : -1, k > 0 ? dt_s : 0.0);
+  }
+  const ums::Landmark& l = map.at_pool(map.find(1));
+  REQUIRE(l.n_obs == 4);
+  // d/dt of the bearing: |rate| = 0.5 + 0.2 t rad/s along x at t = 0 (the chord's direction).
+  auto rate = [](double t_s) { return 0.5 + 0.2 * t_s; };
+  // First observation: the forward difference (rate at dt/2); inside: central (rate at its own
+  // time, to the chord's curvature); last: backward (rate at t - dt/2). Within 1e-3 rad/s.
+  CHECK(std::abs(l.obs[0].velocity_left.cast<double>().norm() - rate(0.5 * dt_s)) < 1e-3);
+  CHECK(std::abs(l.obs[1].velocity_left.cast<double>().norm() - rate(1 * dt_s)) < 1e-3);
+  CHECK(std::abs(l.obs[2].velocity_left.cast<double>().norm() - rate(2 * dt_s)) < 1e-3);
+  CHECK(std::abs(l.obs[3].velocity_left.cast<double>().norm() - rate(2.5 * dt_s)) < 1e-3);
+  CHECK(l.obs[0].velocity_right.norm() == 0.0f);  // never seen on the right
+  // Seen once, then in the next frame: both get the one difference; before that, zero.
+  const ums::Landmark& l2 = map.at_pool(map.find(2));
+  REQUIRE(l2.n_obs == 2);
+  CHECK(std::abs(l2.obs[0].velocity_left.cast<double>().norm() - rate(2.5 * dt_s)) < 1e-3);
+  // A frame in between missing (not the previous window frame): no rate.
+  s.ff->features.clear();
+  ums::FeatureObservation o;
+  o.id = 3;
+  o.bearing_left = bearing(0.0);
+  s.ff->features.push_back(o);
+  map.ingest(*s.ff, slots[3], Eigen::Matrix3d::Identity(), slots[2], dt_s);
+  CHECK(map.at_pool(map.find(3)).obs[0].velocity_left.norm() == 0.0f);
+}
