@@ -5,7 +5,9 @@
 //
 // Pipeline: ground truth (shared *_GT.txt: cam0, q = R_CW; or EuRoC data.csv: body) -> body poses
 // via T_b_c0 -> uniform 20 Hz control points -> cut [start, start + duration] -> scenario prefix
-// -> continuous trajectory -> IMU and camera poses from it -> renderer -> writer.
+// -> continuous trajectory -> IMU and camera poses from it -> renderer -> writer. The car scenarios
+// replace the first steps: their route's camera poses (car_route.hpp) -> body poses via T_b_c0 ->
+// the same 20 Hz control points; and the room by a street (street_world.hpp).
 //
 // Two independent styles (SimStyle), so the estimator is not measured on one simulator only:
 //  - procedural (the reference, unchanged): PoseSpline on SO(3) x R3, IMU at imu_rate_hz from
@@ -46,7 +48,7 @@ enum class Scenario : std::uint8_t {
   // The paper's car (Sec. IV-B, car_route.hpp): own trajectory (no trajectory_path), street world
   // (street_world.hpp), procedural style only.
   kCarTurn,          // case 2: 25 m of uniform motion (IMU unexcited), a 9 m radius 90 deg turn; ~60 m
-  kCarLoop,          // case 1: a closed 80 x 50 m rounded rectangle at 15-25 km/h; ~272 m
+  kCarLoop,          // case 1: a closed 80 x 50 m rounded rectangle at 15-25 km/h; ~259 m
 };
 bool parse_scenario(const std::string& name, Scenario* scenario);
 const char* scenario_name(Scenario scenario);
