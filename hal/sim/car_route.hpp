@@ -9,7 +9,7 @@
 //    bumps (constant velocity and attitude: the IMU sees only gravity), then a 90 deg left turn
 //    of radius 9 m slowing to ~16 km/h, then straight; ~60 m.
 //  - kLoop (paper case 1): a closed rounded rectangle 80 m x 50 m with 9 m corners driven once
-//    plus 15 m (the start seen again), speed varying between ~15.5 and ~24 km/h; ~272 m.
+//    (244 m) plus 15 m (the start seen again), speed varying between ~15.5 and ~24 km/h; ~259 m.
 // Start-up code: std::vector storage.
 
 #include <cstdint>
