@@ -85,6 +85,8 @@ const NumericKey kNumericKeys[] = {
      [](AppConfig& c, double v) { c.huber_px = v; }},
     {"outlier_px", "outlier_px", 0.5, 100, false, "px", "", [](const AppConfig& c) { return c.outlier_px; },
      [](AppConfig& c, double v) { c.outlier_px = v; }},
+    {"max_speed_m_s", "max_speed_m_s", 1, 100, false, "m/s", " (divergence guard: a faster estimate resets the window)",
+     [](const AppConfig& c) { return c.max_speed_m_s; }, [](AppConfig& c, double v) { c.max_speed_m_s = v; }},
     {"g_norm", "rig.imu.gravity_m_s2", 9.0, 10.5, false, "m/s^2", "",
      [](const AppConfig& c) { return c.rig.imu.gravity_m_s2; },
      [](AppConfig& c, double v) { c.rig.imu.gravity_m_s2 = v; }},

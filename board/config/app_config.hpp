@@ -43,6 +43,8 @@ struct AppConfig {
   double feature_sigma_px = 1.5;        // px, feature noise that whitens the visual residuals
   double huber_px = 1.5;                // px, Huber threshold on the visual residuals
   double outlier_px = 3.0;              // px, an observation this far off marks its landmark an outlier
+  double max_speed_m_s = 20.0;          // m/s, divergence guard: a faster estimate resets the window
+                                        // (72 km/h: a car at 15-25 km/h, a drone, are far below it)
 
   // Output to a flight controller (MAVLink, docs/mavlink.md): the vehicle's FRD body in the
   // estimator's body (IMU) frame. Only its rotation is used; the lever arm is the flight

@@ -34,7 +34,8 @@ usage: umsvins <command> [options]
            [--style procedural|photo] [--texture-dataset DIR] [--exposure-ms MS]
            [--td-ms MS] [--extrinsic-error-deg D] [--extrinsic-error-mm MM] --out DIR
       Write a synthetic EuRoC-layout stereo+IMU dataset (scenarios: nominal, standstill-start,
-      uniform-start, dark-start, textureless, impulses, right-dropout, blackout). --style photo: a second,
+      uniform-start, dark-start, textureless, impulses, right-dropout, blackout; car-turn and car-loop,
+      the paper's car (Sec. IV-B): their own route and street world, no --trajectory). --style photo: a second,
       independent simulator (textures cut from the real images of the EuRoC dataset DIR, which it
       requires; larger room, uneven light, vignetting, motion blur over --exposure-ms, default 4;
       SE(3) trajectory, decimated IMU with real-sized biases). Default: procedural.

@@ -42,6 +42,7 @@ EstimatorOptions estimator_options_from(const AppConfig& config, const ReplayPip
   o.stage_min_2d_left = config.stage_min_2d_left;
   o.huber_px = config.huber_px;
   o.outlier_px = config.outlier_px;
+  o.max_speed_m_s = config.max_speed_m_s;
   return o;
 }
 

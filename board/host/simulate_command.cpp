@@ -19,7 +19,7 @@ int run_simulate(const std::vector<std::string>& argv, std::ostream& out, std::o
   if (!sim::parse_scenario(scenario, &options.scenario)) {
     throw UsageError("umsvins simulate: unknown --scenario '" + scenario +
                      "' (nominal, standstill-start, uniform-start, dark-start, textureless, impulses, "
-                     "right-dropout, blackout)");
+                     "right-dropout, blackout, car-turn, car-loop)");
   }
   const std::string camera = args.get_or("camera", "euroc");
   if (!sim::parse_camera_preset(camera, &options.camera_preset)) {

@@ -21,11 +21,14 @@ struct SurfaceHit {
   float shade = 1.0f;  // World::face_shade of the face orientation
 };
 
-// The room's nearest exit plane along o + t d (an infinite 1/d never wins the min).
+// The room's nearest exit plane along o + t d.
 inline SurfaceHit hit_room(const World& w, const Eigen::Vector3f& o, const Eigen::Vector3f& d,
                            const Eigen::Vector3f& inv_d) {
   SurfaceHit hit;
   for (int a = 0; a < 3; ++a) {
+    // A ray parallel to a pair of walls never meets them: (lo - o) * inf would be -inf and win
+    // (a camera axis-aligned with the room, as the car's on its straights, had a black row).
+    if (d[a] == 0.0f) continue;
     const bool pos = d[a] > 0.0f;
     const float t = ((pos ? w.room_hi[a] : w.room_lo[a]) - o[a]) * inv_d[a];
     if (t < hit.t) {

@@ -12,6 +12,7 @@
 
 #include "core/math/se3.hpp"
 #include "core/math/so3.hpp"
+#include "hal/sim/car_route.hpp"
 #include "hal/sim/decimated_imu.hpp"
 #include "hal/replay/euroc_writer.hpp"
 
@@ -128,8 +129,16 @@ bool parse_scenario(const std::string& name, Scenario* scenario) {
       return true;
     }
   }
+  for (Scenario s : kCarScenarios) {
+    if (name == scenario_name(s)) {
+      *scenario = s;
+      return true;
+    }
+  }
   return false;
 }
+
+bool is_car_scenario(Scenario scenario) { return scenario == Scenario::kCarTurn || scenario == Scenario::kCarLoop; }
 
 const char* scenario_name(Scenario s) {
   switch (s) {
@@ -141,6 +150,8 @@ const char* scenario_name(Scenario s) {
     case Scenario::kImpulses: return "impulses";
     case Scenario::kRightDropout: return "right-dropout";
     case Scenario::kBlackout: return "blackout";
+    case Scenario::kCarTurn: return "car-turn";
+    case Scenario::kCarLoop: return "car-loop";
   }
   return "?";
 }
@@ -233,6 +244,13 @@ bool SimOptions::validate(std::string* error) const {
   if (!(std::abs(td_s) <= 0.1)) return bad("simulate: --td-ms must be within +-100 ms");
   if (!(extrinsic_error_deg >= 0.0 && extrinsic_error_deg <= 10.0)) return bad("simulate: --extrinsic-error-deg must be in [0, 10]");
   if (!(extrinsic_error_m >= 0.0 && extrinsic_error_m <= 0.1)) return bad("simulate: --extrinsic-error-mm must be in [0, 100]");
+  if (is_car_scenario(scenario)) {
+    const std::string name = scenario_name(scenario);
+    if (!trajectory_path.empty()) return bad("simulate: scenario " + name + " drives its own route: --trajectory must be empty");
+    if (start_s != 0.0) return bad("simulate: scenario " + name + " starts at the route's start: --start must be 0");
+    if (style != SimStyle::kProcedural) return bad("simulate: scenario " + name + " exists in the procedural style only");
+    if (!street.validate(error)) return false;
+  }
   if (style == SimStyle::kPhoto) {
     if (texture_dataset.empty()) {
       return bad("simulate: style photo needs texture_dataset (--texture-dataset DIR: an EuRoC dataset folder holding mav0/)");
@@ -314,10 +332,30 @@ void add_scenario_prefix(Scenario scenario, ControlPoints* c) {
   }
 }
 
+// Car scenarios: the route's camera poses every knot (from one knot before its start) turned into
+// body poses through T_b_c0; duration_s cuts the route short.
+ControlPoints car_control_points(const SimOptions& o, const RigCalibration& rig) {
+  const CarRoute route = o.scenario == Scenario::kCarTurn ? CarRoute::kTurn : CarRoute::kLoop;
+  const Eigen::Isometry3d T_c0_b = rig.cam[0].T_b_c.inverse();
+  ControlPoints c;
+  c.first_ns = 1'000'000'000'000LL;
+  for (const CarPose& pose : car_camera_poses(route, kKnotDt, o.duration_s)) {
+    Eigen::Isometry3d T_w_c = Eigen::Isometry3d::Identity();
+    T_w_c.linear() = pose.R_w_c;
+    T_w_c.translation() = pose.p_w_c;
+    const Eigen::Isometry3d T_w_b = T_w_c * T_c0_b;
+    Eigen::Quaterniond q(T_w_b.rotation());
+    if (!c.q.empty() && c.q.back().dot(q) < 0.0) q.coeffs() *= -1.0;
+    c.q.push_back(q);
+    c.p.push_back(T_w_b.translation());
+  }
+  return c;
+}
+
 }  // namespace
 
 SimTrajectory make_trajectory(const SimOptions& o, const RigCalibration& rig) {
-  ControlPoints c = cut_control_points(o, rig);
+  ControlPoints c = is_car_scenario(o.scenario) ? car_control_points(o, rig) : cut_control_points(o, rig);
   add_scenario_prefix(o.scenario, &c);
   const std::int64_t dt_ns = static_cast<std::int64_t>(kKnotDt * 1e9);
   SimTrajectory tr;
@@ -454,10 +492,16 @@ void make_scene(const SimOptions& o, const SimTrajectory& tr, const RigCalibrati
     scene->photo = std::make_unique<PhotoRenderer>(scene->world, rig, o.lens);
     return;
   }
-  WorldOptions wo = o.world;
-  wo.seed = world_seed;
-  wo.textureless_walls = o.world.textureless_walls || textureless;
-  scene->world = make_world(path, wo);
+  if (is_car_scenario(o.scenario)) {
+    StreetOptions so = o.street;
+    so.seed = world_seed;
+    scene->world = make_street_world(path, so);
+  } else {
+    WorldOptions wo = o.world;
+    wo.seed = world_seed;
+    wo.textureless_walls = o.world.textureless_walls || textureless;
+    scene->world = make_world(path, wo);
+  }
   scene->procedural = std::make_unique<StereoRenderer>(scene->world, rig);
 }
 

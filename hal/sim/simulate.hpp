@@ -5,7 +5,9 @@
 //
 // Pipeline: ground truth (shared *_GT.txt: cam0, q = R_CW; or EuRoC data.csv: body) -> body poses
 // via T_b_c0 -> uniform 20 Hz control points -> cut [start, start + duration] -> scenario prefix
-// -> continuous trajectory -> IMU and camera poses from it -> renderer -> writer.
+// -> continuous trajectory -> IMU and camera poses from it -> renderer -> writer. The car scenarios
+// replace the first steps: their route's camera poses (car_route.hpp) -> body poses via T_b_c0 ->
+// the same 20 Hz control points; and the room by a street (street_world.hpp).
 //
 // Two independent styles (SimStyle), so the estimator is not measured on one simulator only:
 //  - procedural (the reference, unchanged): PoseSpline on SO(3) x R3, IMU at imu_rate_hz from
@@ -30,6 +32,7 @@
 #include "hal/sim/renderer.hpp"
 #include "hal/sim/se3_spline.hpp"
 #include "hal/sim/spline.hpp"
+#include "hal/sim/street_world.hpp"
 
 namespace ums::sim {
 
@@ -42,6 +45,10 @@ enum class Scenario : std::uint8_t {
   kImpulses,         // single-sample IMU spikes (30-80 m/s^2, 5-10 rad/s) at the highest yaw rates
   kRightDropout,     // right camera blank (black) for 4 s mid-flight
   kBlackout,         // both cameras black for SimOptions::blackout_s (2 s) mid-flight (vision lost, then back)
+  // The paper's car (Sec. IV-B, car_route.hpp): own trajectory (no trajectory_path), street world
+  // (street_world.hpp), procedural style only.
+  kCarTurn,          // case 2: 25 m of uniform motion (IMU unexcited), a 9 m radius 90 deg turn; ~60 m
+  kCarLoop,          // case 1: a closed 80 x 50 m rounded rectangle at 15-25 km/h; ~259 m
 };
 bool parse_scenario(const std::string& name, Scenario* scenario);
 const char* scenario_name(Scenario scenario);
@@ -49,6 +56,10 @@ inline constexpr Scenario kAllScenarios[] = {Scenario::kNominal, Scenario::kStan
                                              Scenario::kUniformStart, Scenario::kDarkStart,
                                              Scenario::kTextureless, Scenario::kImpulses,
                                              Scenario::kRightDropout, Scenario::kBlackout};
+// The scenarios that bring their own trajectory and world (not in kAllScenarios, which all fly a
+// given or the built-in trajectory).
+inline constexpr Scenario kCarScenarios[] = {Scenario::kCarTurn, Scenario::kCarLoop};
+bool is_car_scenario(Scenario scenario);
 
 enum class SimStyle : std::uint8_t {
   kProcedural,  // the reference simulator (default; its output does not change)
@@ -66,6 +77,7 @@ RigCalibration rig_preset(CameraPreset preset);
 
 struct SimOptions {
   std::string trajectory_path;        // shared *_GT.txt or EuRoC data.csv; empty: built-in loop
+                                      // (car scenarios: must be empty, they drive their own route)
   Scenario scenario = Scenario::kNominal;
   std::uint64_t seed = 1;             // every random draw (noise, biases, boxes, textures)
   std::string out_dir;                // dataset folder (gets mav0/)
@@ -93,6 +105,7 @@ struct SimOptions {
   double extrinsic_error_deg = 0.0;
   double extrinsic_error_m = 0.0;
   WorldOptions world;                 // procedural style's world
+  StreetOptions street;               // car scenarios' world (its seed is set from seed)
   RenderOptions render;
   SimStyle style = SimStyle::kProcedural;
   // Photo style only (the procedural style ignores these):

@@ -5,6 +5,7 @@
 #include <fstream>
 
 #include "core/common/capacity.hpp"
+#include "core/estimator/estimator_options.hpp"
 #include "hal/replay/euroc_sensor_yaml.hpp"
 #include "tests/common/test_paths.hpp"
 
@@ -202,7 +203,8 @@ TEST_CASE("the back end's weights are keys of their own", "[config]") {
   const std::string path = write_vins_config(
       dir, std::string(kVinsConfig) +
                "imu_noise_scale: 3.5\nimu_walk_scale: 8\nmax_landmarks_in_solve: 200\nbeta_3d: 1.5\nbeta_2d: 0.5\nmin_stereo_disparity: 2\n"
-               "landmark_spread_px: 80\nstage_min_2d_left: 0\nfeature_sigma_px: 2\nhuber_px: 1\noutlier_px: 4\n");
+               "landmark_spread_px: 80\nstage_min_2d_left: 0\nfeature_sigma_px: 2\nhuber_px: 1\noutlier_px: 4\n"
+               "max_speed_m_s: 35\n");
   std::vector<std::string> warnings;
   const ums::AppConfig c = ums::load_config(path, micro_calibration(), &warnings);
   CHECK(warnings.empty());
@@ -217,6 +219,7 @@ TEST_CASE("the back end's weights are keys of their own", "[config]") {
   CHECK(c.feature_sigma_px == 2.0);
   CHECK(c.huber_px == 1.0);
   CHECK(c.outlier_px == 4.0);
+  CHECK(c.max_speed_m_s == 35.0);
   // Without the keys: the defaults (docs/results.md, "Weights", has the measurements behind them).
   const ums::AppConfig d = ums::load_config(write_vins_config(ums::test::make_temp_dir("config_weights_default"),
                                                               kVinsConfig),
@@ -224,6 +227,10 @@ TEST_CASE("the back end's weights are keys of their own", "[config]") {
   CHECK(d.max_landmarks_in_solve == 150);
   CHECK(d.stage_min_2d_left == 10);
   CHECK(d.landmark_spread_px == 0.0);
+  // The speed guard's default is the estimator's (20 m/s = 72 km/h), far above a car at 15-25 km/h
+  // (6.9 m/s, the simulator's car scenarios) or a drone.
+  CHECK(d.max_speed_m_s == ums::EstimatorOptions{}.max_speed_m_s);
+  CHECK(d.max_speed_m_s > 25.0 / 3.6 * 2.0);
 }
 
 TEST_CASE("body_T_vehicle sets the MAVLink mount; a matrix that is no rotation is refused", "[config]") {
@@ -301,6 +308,8 @@ TEST_CASE("each invalid value stops with file, key, value and the allowed range"
       {"max_cnt: 150", "max_cnt: 150\nmax_landmarks_in_solve: 5", "key 'max_landmarks_in_solve': value 5, allowed 10.."},
       {"max_cnt: 150", "max_cnt: 150\nbeta_2d: 0", "key 'beta_2d': value 0, allowed 0.01..100"},
       {"max_cnt: 150", "max_cnt: 150\nmin_stereo_disparity: -1", "key 'min_stereo_disparity': value -1, allowed 0..100 px"},
+      {"max_cnt: 150", "max_cnt: 150\nmax_speed_m_s: 0.5", "key 'max_speed_m_s': value 0.5, allowed 1..100 m/s"},
+      {"max_cnt: 150", "max_cnt: 150\nmax_speed_m_s: 150", "key 'max_speed_m_s': value 150, allowed 1..100 m/s"},
   };
   for (const Case& c : cases) {
     CAPTURE(c.to);

@@ -260,6 +260,10 @@ TEST_CASE("umsvins simulate writes a dataset that replay reads, eval scores an e
   CHECK(run({"eval", "--estimate", dir + "/est.tum", "--groundtruth", gt, "--align", "affine"}).code ==
         kExitUsage);
   CHECK(run({"simulate", "--scenario", "foggy", "--out", dir + "/x"}).code == kExitUsage);
+  // The car scenarios drive their own route: a trajectory file is a usage slip, named.
+  const Run car = run({"simulate", "--scenario", "car-turn", "--trajectory", gt, "--out", dir + "/x"});
+  CHECK(car.code == kExitUsage);
+  CHECK(car.err.find("--trajectory must be empty") != std::string::npos);
   CHECK(run({"eval", "--estimate", dir + "/missing.tum", "--groundtruth", gt}).code == kExitFailure);
 }
 

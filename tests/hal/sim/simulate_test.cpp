@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/math/so3.hpp"
+#include "hal/sim/car_route.hpp"
 #include "hal/replay/png_io.hpp"
 #include "tests/common/test_paths.hpp"
 #include "tests/common/emulation.hpp"
@@ -654,4 +655,151 @@ TEST_CASE("D455 timing: 30 Hz cameras, a 100 Hz accelerometer interpolated onto 
   o.accel_rate_hz = 70.0;
   CHECK_FALSE(o.validate(&err));
   CHECK(err.find("accel_rate_hz") != std::string::npos);
+}
+
+namespace {
+
+// A car scenario with the D455 preset, noise-free IMU (densities and initial biases 0), so the
+// accelerometer is the specific force exactly.
+struct CarRun {
+  SimOptions o;
+  ums::RigCalibration rig = rig_preset(CameraPreset::kD455);
+  SimTrajectory tr;
+};
+CarRun car_run(Scenario scenario) {
+  CarRun r;
+  r.o.scenario = scenario;
+  r.o.camera_preset = CameraPreset::kD455;
+  apply_timing_preset(CameraPreset::kD455, &r.o);
+  r.o.out_dir = "unused";
+  r.o.initial_gyro_bias_sigma_rad_s = 0.0;
+  r.o.initial_accel_bias_sigma_m_s2 = 0.0;
+  r.rig.imu.gyro_noise_density = r.rig.imu.accel_noise_density = 0.0;
+  r.rig.imu.gyro_random_walk = r.rig.imu.accel_random_walk = 0.0;
+  r.tr = make_trajectory(r.o, r.rig);
+  return r;
+}
+
+}  // namespace
+
+TEST_CASE("car scenarios: own route only (a --trajectory is a usage error), procedural style", "[sim][car]") {
+  Scenario sc = Scenario::kNominal;
+  REQUIRE(parse_scenario("car-turn", &sc));
+  CHECK(sc == Scenario::kCarTurn);
+  REQUIRE(parse_scenario("car-loop", &sc));
+  CHECK(sc == Scenario::kCarLoop);
+  CHECK(is_car_scenario(sc));
+  CHECK_FALSE(is_car_scenario(Scenario::kUniformStart));
+  SimOptions o;
+  o.scenario = Scenario::kCarTurn;
+  o.out_dir = "unused";
+  std::string err;
+  CHECK(o.validate(&err));
+  o.trajectory_path = gt_file("V101");
+  CHECK_FALSE(o.validate(&err));
+  CHECK(err.find("--trajectory must be empty") != std::string::npos);
+  o.trajectory_path.clear();
+  o.start_s = 2.0;
+  CHECK_FALSE(o.validate(&err));
+  CHECK(err.find("--start must be 0") != std::string::npos);
+  o.start_s = 0.0;
+  o.style = SimStyle::kPhoto;
+  o.texture_dataset = "somewhere";
+  CHECK_FALSE(o.validate(&err));
+  CHECK(err.find("procedural style only") != std::string::npos);
+}
+
+TEST_CASE("car-turn body trajectory: uniform start unexcited, 15-25 km/h, radius 9 m, planar, ~60 m", "[sim][car]") {
+  const CarRun r = car_run(Scenario::kCarTurn);
+  const ImuTrack imu = generate_imu(r.tr, r.rig.imu, r.o);
+  REQUIRE(imu.samples.size() > 1000);
+  const Eigen::Vector3d g_w(0.0, 0.0, -r.o.gravity_m_s2);
+  const Eigen::Isometry3d& T_b_c0 = r.rig.cam[0].T_b_c;
+  double distance_m = 0.0, v_min = 1e9, v_max = 0.0, r_min = 1e9, z_min = 1e9, z_max = -1e9, tilt_deg = 0.0;
+  double uniform_excitation = 0.0, later_excitation = 0.0;
+  const double uniform_end_s = 25.0 / 5.6 - 0.1;  // 25 m at 20.16 km/h, less the spline's support
+  for (std::size_t i = 0; i < imu.samples.size(); ++i) {
+    const SplineState s = r.tr.spline.evaluate(imu.samples[i].t_ns);
+    const double t_s = static_cast<double>(imu.samples[i].t_ns - r.tr.t_begin_ns) * 1e-9;
+    const double v = s.v_w_b.norm();
+    distance_m += v / r.o.imu_rate_hz;
+    v_min = std::min(v_min, v);
+    v_max = std::max(v_max, v);
+    // Radius of the horizontal path: |v x a| / |v|^3 in the road plane (the bumps are vertical).
+    const Eigen::Vector2d v_xy = s.v_w_b.head<2>(), a_xy = s.a_w_b.head<2>();
+    const double v_xy_m_s = v_xy.norm();
+    const double cross = std::abs(v_xy.x() * a_xy.y() - v_xy.y() * a_xy.x());
+    r_min = std::min(r_min, v_xy_m_s * v_xy_m_s * v_xy_m_s / std::max(1e-12, cross));
+    z_min = std::min(z_min, s.p_w_b.z());
+    z_max = std::max(z_max, s.p_w_b.z());
+    const Eigen::Matrix3d R_w_c = s.q_w_b.toRotationMatrix() * T_b_c0.rotation();
+    tilt_deg = std::max({tilt_deg, std::abs(std::asin(R_w_c(2, 2))), std::abs(std::asin(R_w_c(2, 0)))});
+    // Excitation: the accelerometer minus gravity alone, plus the gyro.
+    const double e = (imu.samples[i].accel_m_s2 - s.q_w_b.conjugate() * -g_w).norm() + imu.samples[i].gyro_rad_s.norm();
+    double& excitation = t_s < uniform_end_s ? uniform_excitation : later_excitation;
+    excitation = std::max(excitation, e);
+  }
+  tilt_deg *= 180.0 / M_PI;
+  INFO(distance_m << " m, " << v_min * 3.6 << ".." << v_max * 3.6 << " km/h, r_min " << r_min << " m, z " << z_min
+                  << ".." << z_max << " m, tilt " << tilt_deg << " deg, excitation " << uniform_excitation << " / "
+                  << later_excitation);
+  CHECK(distance_m == Approx(60.0).margin(1.5));
+  CHECK(v_min * 3.6 >= 15.0);
+  CHECK(v_max * 3.6 <= 25.0);
+  CHECK(r_min == Approx(9.0).epsilon(0.05));
+  CHECK(z_max - z_min < 0.03);
+  CHECK(z_max - z_min > 0.005);
+  CHECK(tilt_deg < 0.5);
+  CHECK(uniform_excitation < 1e-9);  // gravity only: the IMU is not excited
+  CHECK(later_excitation > 1.0);     // the turn's centripetal 2-3 m/s^2 and the bumps
+}
+
+TEST_CASE("car-loop body trajectory: ~260 m at 15-25 km/h, back where it started", "[sim][car]") {
+  const CarRun r = car_run(Scenario::kCarLoop);
+  double distance_m = 0.0, v_min = 1e9, v_max = 0.0;
+  const std::int64_t dt_ns = 5'000'000;
+  for (std::int64_t t = r.tr.t_begin_ns; t <= r.tr.t_end_ns; t += dt_ns) {
+    const double v = r.tr.spline.evaluate(t).v_w_b.norm();
+    distance_m += v * 5e-3;
+    v_min = std::min(v_min, v);
+    v_max = std::max(v_max, v);
+  }
+  INFO(distance_m << " m, " << v_min * 3.6 << ".." << v_max * 3.6 << " km/h");
+  CHECK(distance_m == Approx(car_route_length_m(CarRoute::kLoop)).margin(2.0));
+  CHECK(distance_m > 250.0);  // "a few hundred metres": the rectangle's 260 m perimeter less its corners' cuts, plus 15 m
+  CHECK(distance_m < 270.0);
+  CHECK(v_min * 3.6 >= 15.0);
+  CHECK(v_max * 3.6 <= 25.0);
+  // The last 15 m retrace the first: the point 15 m before the end is the start.
+  const Eigen::Vector3d p0 = r.tr.spline.evaluate(r.tr.t_begin_ns).p_w_b;
+  double closest_m = 1e9;
+  for (std::int64_t t = r.tr.t_end_ns - 4'000'000'000LL; t <= r.tr.t_end_ns; t += dt_ns) {
+    closest_m = std::min(closest_m, (r.tr.spline.evaluate(t).p_w_b - p0).norm());
+  }
+  CHECK(closest_m < 0.1);
+}
+
+TEST_CASE("car-turn generates a D455 dataset in the street world", "[sim][car][files]") {
+  SimOptions o;
+  o.scenario = Scenario::kCarTurn;
+  o.camera_preset = CameraPreset::kD455;
+  apply_timing_preset(CameraPreset::kD455, &o);
+  o.duration_s = 2.0;
+  o.max_frames = 1;
+  o.street.texture_size = 256;  // test-sized textures
+  o.out_dir = ums::test::make_temp_dir("sim_car_turn");
+  std::string err;
+  REQUIRE(simulate(o, &err) == 0);
+  std::vector<std::uint8_t> pix;
+  int w = 0, h = 0;
+  std::vector<std::string> pngs;
+  for (const auto& e : std::filesystem::directory_iterator(o.out_dir + "/mav0/cam0/data")) pngs.push_back(e.path().string());
+  REQUIRE(pngs.size() == 1);
+  REQUIRE(read_png(pngs[0], &pix, &w, &h, &err));
+  CHECK(w == 848);
+  CHECK(h == 480);
+  // Textured: a wide spread of grey levels (a blank or sky-only frame has a few DN).
+  const auto [lo, hi] = std::minmax_element(pix.begin(), pix.end());
+  CHECK(*hi - *lo > 100);
+  CHECK(slurp(o.out_dir + "/sim_events.csv").find("#scenario car-turn") != std::string::npos);
 }
