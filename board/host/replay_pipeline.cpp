@@ -331,17 +331,22 @@ void ReplayPipeline::write_estimator_stats(JsonWriter& w) const {
       .value("relocations_solved", e.relocations_solved)
       .value("relocation_residuals", e.relocation_residuals)
       .end_object();
+  write_time_offset_stats(w);
+  write_extrinsic_stats(w);
+}
+
+void ReplayPipeline::write_time_offset_stats(JsonWriter& w) const {
+  const Estimator& est = *vio_.estimator();
   // td_ms: the calibration's (applied to the frames by the aligner); estimate_ms: the window's at
   // the end (the same unless estimate_td).
   w.begin_object("time_offset")
       .value("td_ms", rig_td_s_ * 1e3, 4)
       .value("frames_held_for_imu", vio_.time_alignment().frames_held)
-      .value("estimated", vio_.estimator()->options().estimate_td)
-      .value("estimate_ms", vio_.estimator()->window().time_offset().value_s() * 1e3, 4)
-      .value("clamped_solves", e.td_clamped);
-  if (vio_.estimator()->options().estimate_td) write_td_series(w);
+      .value("estimated", est.options().estimate_td)
+      .value("estimate_ms", est.window().time_offset().value_s() * 1e3, 4)
+      .value("clamped_solves", est.stats().td_clamped);
+  if (est.options().estimate_td) write_td_series(w);
   w.end_object();
-  write_extrinsic_stats(w);
 }
 
 // The estimate once per second of the run (the first frame with a pose in each second), as
