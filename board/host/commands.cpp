@@ -33,7 +33,7 @@ usage: umsvins <command> [options]
            [--camera euroc|d455] [--max-frames N] [--exposure-change] [--blackout-s S]
            [--style procedural|photo] [--texture-dataset DIR] [--exposure-ms MS]
            [--td-ms MS] [--extrinsic-error-deg D] [--extrinsic-error-mm MM]
-           [--imu-model ideal|realistic] --out DIR
+           [--imu-model ideal|realistic] [--imu-errors LIST] --out DIR
       Write a synthetic EuRoC-layout stereo+IMU dataset (scenarios: nominal, standstill-start,
       uniform-start, dark-start, textureless, impulses, right-dropout, blackout). --style photo: a second,
       independent simulator (textures cut from the real images of the EuRoC dataset DIR, which it
@@ -45,6 +45,7 @@ usage: umsvins <command> [options]
       and -mm (both cameras' T_b_c off by a rotation and a shift drawn from the seed).
       --imu-model realistic: the IMU also has rotor vibration, scale-factor and misalignment
       errors and a warm-up bias drift (docs/simulator.md); default ideal (the estimator's model).
+      --imu-errors vibration,scale,misalignment,drift: only those (default all).
   eval --estimate F --groundtruth F [--align se3|sim3|posyaw] [--cam0-sensor-yaml F]
        [--stats DIR/stats.json] [--json F]
       Print ATE, RPE and the error budget (ATE per mode with --stats, scale, yaw and position

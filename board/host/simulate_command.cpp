@@ -11,7 +11,7 @@ int run_simulate(const std::vector<std::string>& argv, std::ostream& out, std::o
   const Args args("simulate", argv, {"exposure-change", "quiet"},
                   {"trajectory", "scenario", "seed", "out", "duration", "start", "camera", "max-frames", "style",
                    "texture-dataset", "exposure-ms", "blackout-s", "td-ms", "extrinsic-error-deg", "extrinsic-error-mm",
-                   "imu-model"});
+                   "imu-model", "imu-errors"});
   args.require_positionals(0, "");
   sim::SimOptions options;
   options.out_dir = args.require("out");
@@ -47,6 +47,11 @@ int run_simulate(const std::vector<std::string>& argv, std::ostream& out, std::o
   const std::string imu_model = args.get_or("imu-model", "ideal");
   if (!sim::parse_imu_model(imu_model, &options.imu_model)) {
     throw UsageError("umsvins simulate: unknown --imu-model '" + imu_model + "' (ideal, realistic)");
+  }
+  const std::string imu_errors = args.get_or("imu-errors", "all");
+  if (!sim::select_imu_errors(imu_errors, &options.imu_errors)) {
+    throw UsageError("umsvins simulate: unknown name in --imu-errors '" + imu_errors +
+                     "' (comma-separated: vibration, scale, misalignment, drift; or all)");
   }
   if (options.style == sim::SimStyle::kPhoto && options.texture_dataset.empty()) {
     // A failure (exit 1), not a usage slip: the photo style cannot run without real images.

@@ -88,6 +88,25 @@ bool parse_imu_model(const std::string& name, ImuModel* model) {
 
 const char* imu_model_name(ImuModel model) { return model == ImuModel::kRealistic ? "realistic" : "ideal"; }
 
+bool select_imu_errors(const std::string& list, ImuErrorOptions* o) {
+  bool vibration = false, scale = false, misalignment = false, drift = false;
+  std::stringstream names(list);
+  std::string name;
+  while (std::getline(names, name, ',')) {
+    const bool all = name == "all";
+    if (!all && name != "vibration" && name != "scale" && name != "misalignment" && name != "drift") return false;
+    vibration = vibration || all || name == "vibration";
+    scale = scale || all || name == "scale";
+    misalignment = misalignment || all || name == "misalignment";
+    drift = drift || all || name == "drift";
+  }
+  if (!vibration) o->vibration_accel_rms_m_s2 = o->vibration_gyro_rms_rad_s = 0.0;
+  if (!scale) o->gyro_scale_max = o->accel_scale_max = 0.0;
+  if (!misalignment) o->gyro_misalignment_max_rad = o->accel_misalignment_max_rad = 0.0;
+  if (!drift) o->gyro_drift_rad_s = o->accel_drift_m_s2 = 0.0;
+  return true;
+}
+
 bool ImuErrorOptions::validate(std::string* error) const {
   auto bad = [&](const std::string& m) {
     if (error) *error = m;

@@ -57,6 +57,10 @@ struct ImuErrorOptions {
   bool validate(std::string* error) const;
 };
 
+// Keeps only the errors named in `list` (comma-separated: vibration, scale, misalignment, drift;
+// "all": every one) and zeroes the others' sizes, to tell their effects apart. false: unknown name.
+bool select_imu_errors(const std::string& list, ImuErrorOptions* options);
+
 // What one seed drew: the planted values, recorded in sim_events.csv and measured back in tests.
 struct ImuErrorDraw {
   Eigen::Matrix3d M_gyro = Eigen::Matrix3d::Identity();   // y = M x: scale and misalignment

@@ -293,3 +293,19 @@ TEST_CASE("imu model: sim_events.csv records the settings and the drawn values; 
   CHECK(err.find("drift_time_constant_s") != std::string::npos);
   std::filesystem::remove_all(root);
 }
+
+TEST_CASE("imu errors: select_imu_errors keeps the named errors and zeroes the others", "[sim][imu_errors]") {
+  ImuErrorOptions o;
+  REQUIRE(select_imu_errors("scale,drift", &o));
+  CHECK(o.vibration_accel_rms_m_s2 == 0.0);
+  CHECK(o.vibration_gyro_rms_rad_s == 0.0);
+  CHECK(o.gyro_misalignment_max_rad == 0.0);
+  CHECK(o.accel_scale_max == ImuErrorOptions().accel_scale_max);
+  CHECK(o.gyro_drift_rad_s == ImuErrorOptions().gyro_drift_rad_s);
+  const ImuErrorDraw d = draw_imu_errors(o, 2);
+  CHECK((d.M_gyro - Eigen::Matrix3d(d.M_gyro.diagonal().asDiagonal())).norm() == 0.0);  // no misalignment
+  ImuErrorOptions all;
+  REQUIRE(select_imu_errors("all", &all));
+  CHECK(all.vibration_accel_rms_m_s2 == ImuErrorOptions().vibration_accel_rms_m_s2);
+  CHECK_FALSE(select_imu_errors("scale,wobble", &all));
+}
