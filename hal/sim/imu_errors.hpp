@@ -43,14 +43,14 @@ struct ImuErrorOptions {
   double vibration_width_hz = 20.0;         // Hz, full width of the band (rotor speed changes)
   double vibration_accel_rms_m_s2 = 0.5;    // m/s^2, RMS per axis as the samples show it
   double vibration_gyro_rms_rad_s = 0.02;   // rad/s, RMS per axis as the samples show it
-  // Scale factor and misalignment (BMI055 datasheet: sensitivity tolerance +-1 %, cross-axis
-  // sensitivity +-1-2 %, which includes package and board mounting).
+  // Scale factor and misalignment (consumer MEMS datasheets, BMI055-class: sensitivity tolerance
+  // of about +-1 %, cross-axis sensitivity of 1-2 %; from memory, see docs/simulator.md).
   double gyro_scale_max = 0.005;            // dimensionless, |s| <= this per axis (0.5 %)
   double accel_scale_max = 0.005;           // dimensionless
   double gyro_misalignment_max_rad = 0.2 * 3.14159265358979323846 / 180.0;   // rad (0.2 deg)
   double accel_misalignment_max_rad = 0.2 * 3.14159265358979323846 / 180.0;  // rad (0.2 deg)
-  // Warm-up drift (BMI055 TCO: gyro +-0.015 deg/s/K, accel +-1 mg/K; a board warming by ~5-10 K
-  // in the first minutes of a flight).
+  // Warm-up drift (offset temperature coefficients of BMI055-class parts, ~0.015 deg/s/K and
+  // ~1 mg/K from memory; a board warming by ~5-10 K in the first minutes of a flight).
   double gyro_drift_rad_s = 0.002;          // rad/s, largest per-axis drift at t >> tau
   double accel_drift_m_s2 = 0.05;           // m/s^2, largest per-axis drift at t >> tau
   double drift_time_constant_s = 60.0;      // s, thermal time constant of the warm-up
