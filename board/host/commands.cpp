@@ -32,7 +32,8 @@ usage: umsvins <command> [options]
   simulate [--trajectory F] [--scenario NAME] [--seed N] [--start S] [--duration S]
            [--camera euroc|d455] [--max-frames N] [--exposure-change] [--blackout-s S]
            [--style procedural|photo] [--texture-dataset DIR] [--exposure-ms MS]
-           [--td-ms MS] [--extrinsic-error-deg D] [--extrinsic-error-mm MM] --out DIR
+           [--td-ms MS] [--extrinsic-error-deg D] [--extrinsic-error-mm MM]
+           [--imu-model ideal|realistic] [--imu-errors LIST] --out DIR
       Write a synthetic EuRoC-layout stereo+IMU dataset (scenarios: nominal, standstill-start,
       uniform-start, dark-start, textureless, impulses, right-dropout, blackout; car-turn and car-loop,
       the paper's car (Sec. IV-B): their own route and street world, no --trajectory). --style photo: a second,
@@ -43,6 +44,9 @@ usage: umsvins <command> [options]
       gyro's stamps (EuRoC: 752x480 at 20 Hz, IMU 200 Hz). Planted errors the written calibration
       does not know: --td-ms (images stamped td early: t_imu = t_cam + td), --extrinsic-error-deg
       and -mm (both cameras' T_b_c off by a rotation and a shift drawn from the seed).
+      --imu-model realistic: the IMU also has rotor vibration, scale-factor and misalignment
+      errors and a warm-up bias drift (docs/simulator.md); default ideal (the estimator's model).
+      --imu-errors vibration,scale,misalignment,drift: only those (default all).
   eval --estimate F --groundtruth F [--align se3|sim3|posyaw] [--cam0-sensor-yaml F]
        [--stats DIR/stats.json] [--json F]
       Print ATE, RPE and the error budget (ATE per mode with --stats, scale, yaw and position

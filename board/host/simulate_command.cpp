@@ -10,7 +10,8 @@ namespace ums::cli {
 int run_simulate(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
   const Args args("simulate", argv, {"exposure-change", "quiet"},
                   {"trajectory", "scenario", "seed", "out", "duration", "start", "camera", "max-frames", "style",
-                   "texture-dataset", "exposure-ms", "blackout-s", "td-ms", "extrinsic-error-deg", "extrinsic-error-mm"});
+                   "texture-dataset", "exposure-ms", "blackout-s", "td-ms", "extrinsic-error-deg", "extrinsic-error-mm",
+                   "imu-model", "imu-errors"});
   args.require_positionals(0, "");
   sim::SimOptions options;
   options.out_dir = args.require("out");
@@ -43,6 +44,15 @@ int run_simulate(const std::vector<std::string>& argv, std::ostream& out, std::o
   options.td_s = args.get_double("td-ms", 0.0) * 1e-3;
   options.extrinsic_error_deg = args.get_double("extrinsic-error-deg", 0.0);
   options.extrinsic_error_m = args.get_double("extrinsic-error-mm", 0.0) * 1e-3;
+  const std::string imu_model = args.get_or("imu-model", "ideal");
+  if (!sim::parse_imu_model(imu_model, &options.imu_model)) {
+    throw UsageError("umsvins simulate: unknown --imu-model '" + imu_model + "' (ideal, realistic)");
+  }
+  const std::string imu_errors = args.get_or("imu-errors", "all");
+  if (!sim::select_imu_errors(imu_errors, &options.imu_errors)) {
+    throw UsageError("umsvins simulate: unknown name in --imu-errors '" + imu_errors +
+                     "' (comma-separated: vibration, scale, misalignment, drift; or all)");
+  }
   if (options.style == sim::SimStyle::kPhoto && options.texture_dataset.empty()) {
     // A failure (exit 1), not a usage slip: the photo style cannot run without real images.
     err << "umsvins simulate: --style photo needs --texture-dataset DIR (an EuRoC dataset folder holding "

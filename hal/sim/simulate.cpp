@@ -251,6 +251,7 @@ bool SimOptions::validate(std::string* error) const {
     if (style != SimStyle::kProcedural) return bad("simulate: scenario " + name + " exists in the procedural style only");
     if (!street.validate(error)) return false;
   }
+  if (imu_model == ImuModel::kRealistic && !imu_errors.validate(error)) return false;
   if (style == SimStyle::kPhoto) {
     if (texture_dataset.empty()) {
       return bad("simulate: style photo needs texture_dataset (--texture-dataset DIR: an EuRoC dataset folder holding mav0/)");
@@ -385,6 +386,13 @@ int accel_every(const SimOptions& o) {
   return o.accel_rate_hz > 0.0 ? static_cast<int>(std::lround(o.imu_rate_hz / o.accel_rate_hz)) : 1;
 }
 
+// The realistic model's errors, before a slower accelerometer is interpolated (so it samples the
+// vibration at its own rate, as the real one does).
+void add_realistic_errors(const SimOptions& o, ImuTrack* track) {
+  if (o.imu_model != ImuModel::kRealistic) return;
+  apply_imu_errors(o.imu_errors, draw_imu_errors(o.imu_errors, o.seed), o.seed, track);
+}
+
 }  // namespace
 
 ImuTrack generate_imu(const SimTrajectory& tr, const ImuCalibration& imu, const SimOptions& o) {
@@ -398,6 +406,7 @@ ImuTrack generate_imu(const SimTrajectory& tr, const ImuCalibration& imu, const 
     d.impulses = o.scenario == Scenario::kImpulses;
     d.seed = o.seed;
     ImuTrack track = generate_decimated_imu(tr.se3, tr.t_begin_ns, tr.t_end_ns, imu, d);
+    add_realistic_errors(o, &track);
     interpolate_accel(accel_every(o), &track);
     return track;
   }
@@ -437,6 +446,7 @@ ImuTrack generate_imu(const SimTrajectory& tr, const ImuCalibration& imu, const 
     bg += rg * nvec();
     ba += ra * nvec();
   }
+  add_realistic_errors(o, &track);
   interpolate_accel(accel_every(o), &track);
   if (o.scenario == Scenario::kImpulses) {
     add_impulses(yaw_rate, o.imu_rate_hz, static_cast<double>(tr.t_end_ns - tr.t_begin_ns) * 1e-9, rng, n01, &track);
@@ -542,6 +552,7 @@ void write_events(const SimOptions& o, const SimTrajectory& tr, const ImuTrack& 
     ev << "#sensors: td_s " << o.td_s << ", extrinsic error " << o.extrinsic_error_deg << " deg " << o.extrinsic_error_m
        << " m (not in the calibration written), accelerometer " << o.imu_rate_hz / accel_every(o) << " Hz\n";
   }
+  if (o.imu_model == ImuModel::kRealistic) ev << imu_errors_header(o.imu_errors, draw_imu_errors(o.imu_errors, o.seed));
   ev << "#t_ns,event\n";
   ev << tr.t_begin_ns << ",begin\n" << tr.flight_begin_ns << ",flight_begin\n";
   for (std::size_t i : imu.impulse_index) ev << imu.samples[i].t_ns << ",imu_impulse\n";

@@ -26,6 +26,7 @@
 #include "core/common/imu_sample.hpp"
 #include "hal/replay/euroc_groundtruth.hpp"
 #include "hal/sim/exposure.hpp"
+#include "hal/sim/imu_errors.hpp"
 #include "hal/sim/imu_track.hpp"
 #include "hal/sim/photo_renderer.hpp"
 #include "hal/sim/photo_world.hpp"
@@ -104,6 +105,10 @@ struct SimOptions {
   // seed: the rig mounted off against the IMU, the stereo baseline exact.
   double extrinsic_error_deg = 0.0;
   double extrinsic_error_m = 0.0;
+  // kRealistic: both styles' IMU gets imu_errors (vibration, scale, misalignment, drift), none of
+  // it in the sensor.yaml written (the datasheet's densities, as a user has them).
+  ImuModel imu_model = ImuModel::kIdeal;
+  ImuErrorOptions imu_errors;
   WorldOptions world;                 // procedural style's world
   StreetOptions street;               // car scenarios' world (its seed is set from seed)
   RenderOptions render;
