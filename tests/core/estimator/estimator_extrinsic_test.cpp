@@ -11,13 +11,11 @@
 
 #include <catch2/catch.hpp>
 
-#include "core/estimator/estimator.hpp"
 #include "core/estimator/window.hpp"
-#include "core/frontend/frontend.hpp"
-#include "core/imu/saturation.hpp"
 #include "hal/replay/euroc_reader.hpp"
 #include "hal/sim/simulate.hpp"
 #include "tests/common/test_paths.hpp"
+#include "tests/core/estimator/dataset_run.hpp"
 
 namespace {
 
@@ -39,27 +37,12 @@ ExtrinsicRun run(const std::string& data, bool estimate, double release_deg = um
   dT.linear() = Eigen::AngleAxisd(0.5 * M_PI / 180.0, Eigen::Vector3d(0, 1, 1).normalized()).toRotationMatrix();
   dT.translation() = 0.01 * Eigen::Vector3d(1, 1, 0).normalized();
   for (int c = 0; c < 2; ++c) rig.cam[c].T_b_c = dT * truth.cam[c].T_b_c;
-  ums::Frontend frontend(ums::FrontendOptions(), rig);
   ums::EstimatorOptions eo;
   eo.focal_px = rig.cam[0].fx;
   eo.estimate_extrinsic = estimate;
   eo.extrinsic_release_deg = release_deg;
-  auto est = std::make_unique<ums::Estimator>(eo, rig);
-  auto ff = std::make_unique<ums::FrameFeatures>();
-  ums::SaturationElement saturation;
-  ums::ImuSample imu;
-  ums::StereoFrame frame;
   ums::EstimatorOutput out;
-  for (;;) {
-    const auto ev = reader.next(&imu, &frame);
-    if (ev == ums::hal::EurocReader::Event::kEnd) break;
-    if (ev == ums::hal::EurocReader::Event::kImu) {
-      ums::ImuSample clipped;
-      est->add_imu(clipped, saturation.apply(imu, &clipped));
-    } else if (frontend.process(frame, nullptr, ff.get()) == ums::Status::kOk) {
-      est->add_frame(*ff, &out, nullptr);
-    }
-  }
+  const auto est = ums::test::run_dataset(reader, rig, eo, &out, [](std::int64_t, const ums::EstimatorOutput&) {});
   ExtrinsicRun r;
   r.vio = out.mode == ums::EstimatorMode::kVio;
   r.released_t_ns = est->stats().extrinsic_released_t_ns;

@@ -8,13 +8,11 @@
 
 #include <catch2/catch.hpp>
 
-#include "core/estimator/estimator.hpp"
 #include "core/estimator/window.hpp"
-#include "core/frontend/frontend.hpp"
-#include "core/imu/saturation.hpp"
 #include "hal/replay/euroc_reader.hpp"
 #include "hal/sim/simulate.hpp"
 #include "tests/common/test_paths.hpp"
+#include "tests/core/estimator/dataset_run.hpp"
 
 namespace {
 
@@ -29,30 +27,16 @@ TdRun run(const std::string& data, bool estimate) {
   ums::hal::EurocReader reader;
   reader.open(data, ums::hal::EurocReaderOptions());
   const ums::RigCalibration rig = reader.calibration();
-  ums::Frontend frontend(ums::FrontendOptions(), rig);
   ums::EstimatorOptions eo;
   eo.focal_px = rig.cam[0].fx;
   eo.estimate_td = estimate;
-  auto est = std::make_unique<ums::Estimator>(eo, rig);
-  auto ff = std::make_unique<ums::FrameFeatures>();
-  ums::SaturationElement saturation;
-  ums::ImuSample imu;
-  ums::StereoFrame frame;
   ums::EstimatorOutput out;
   TdRun r;
   std::int64_t t0_ns = -1;
-  for (;;) {
-    const auto ev = reader.next(&imu, &frame);
-    if (ev == ums::hal::EurocReader::Event::kEnd) break;
-    if (ev == ums::hal::EurocReader::Event::kImu) {
-      ums::ImuSample clipped;
-      est->add_imu(clipped, saturation.apply(imu, &clipped));
-    } else if (frontend.process(frame, nullptr, ff.get()) == ums::Status::kOk) {
-      est->add_frame(*ff, &out, nullptr);
-      if (t0_ns < 0) t0_ns = frame.t_ns;
-      if (frame.t_ns - t0_ns <= 10'000'000'000LL) r.td_at_10s_ms = out.td_s * 1e3;
-    }
-  }
+  const auto est = ums::test::run_dataset(reader, rig, eo, &out, [&](std::int64_t t_ns, const ums::EstimatorOutput& o) {
+    if (t0_ns < 0) t0_ns = t_ns;
+    if (t_ns - t0_ns <= 10'000'000'000LL) r.td_at_10s_ms = o.td_s * 1e3;
+  });
   r.td_end_ms = est->window().time_offset().value_s() * 1e3;
   r.vio = out.mode == ums::EstimatorMode::kVio;
   r.resets = est->stats().resets;
