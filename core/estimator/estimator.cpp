@@ -226,13 +226,35 @@ Eigen::Matrix3d Estimator::c0_from_c1() const {
   return e.T_b_c(0).linear().transpose() * e.T_b_c(1).linear();
 }
 
+CameraMotion Estimator::camera_motion(const WindowFrame& prev, const WindowFrame& f) const {
+  CameraMotion m;
+  const std::size_t n_prev = prev.pre.num_samples(), n_cur = f.pre.num_samples();
+  if (n_prev < 1 || n_cur < 2) return m;
+  // Each interval's last sample is held to its frame's stamp: the rate at that frame.
+  const Eigen::Vector3d bg = state::bg(f.sb);
+  const Eigen::Vector3d w_prev_b = prev.pre.sample(n_prev - 1).gyro_rad_s - bg;
+  const Eigen::Vector3d w_cur_b = f.pre.sample(n_cur - 1).gyro_rad_s - bg;
+  const Eigen::Matrix3d R_cur_prev_b = f.pre.gamma().toRotationMatrix().transpose();
+  for (int c = 0; c < 2; ++c) {
+    const Eigen::Matrix3d R_b_c = window_->extrinsics().T_b_c(c).linear();
+    m.R_cur_prev[c] = (R_b_c.transpose() * R_cur_prev_b * R_b_c).cast<float>();
+    m.w_cur_rad_s[c] = (R_b_c.transpose() * w_cur_b).cast<float>();
+    m.w_prev_rad_s[c] = (R_b_c.transpose() * w_prev_b).cast<float>();
+  }
+  m.valid = m.R_cur_prev[0].allFinite() && m.w_cur_rad_s[0].allFinite() && m.w_prev_rad_s[0].allFinite();
+  return m;
+}
+
 void Estimator::observe(const FrameFeatures& ff, WindowFrame& f, const StandstillResult& rest) {
   window_->push_next();
   const int slot = window_->slot_of(f);
   const int n = window_->size();
   const int prev_slot = n >= 2 ? window_->slot_at(n - 2) : -1;
   const double dt_s = n >= 2 ? 1e-9 * static_cast<double>(f.t_ns - window_->at(n - 2).t_ns) : 0.0;
-  stats_.drops_landmarks += static_cast<std::uint64_t>(landmarks_->ingest(ff, slot, c0_from_c1(), prev_slot, dt_s));
+  const CameraMotion motion =
+      options_.estimate_td && f.imu_ok && n >= 2 ? camera_motion(window_->at(n - 2), f) : CameraMotion();
+  stats_.drops_landmarks +=
+      static_cast<std::uint64_t>(landmarks_->ingest(ff, slot, c0_from_c1(), prev_slot, dt_s, motion));
   // The IMU alone cannot tell rest from uniform motion (both read gravity and no rotation): when
   // the images can tell, they must agree that nothing moves.
   if (f.still && n >= 2) {

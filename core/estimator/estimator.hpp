@@ -36,6 +36,7 @@
 #include "core/estimator/estimator_stats.hpp"
 #include "core/estimator/frame_id.hpp"
 #include "core/estimator/keyframe_sink.hpp"
+#include "core/estimator/landmark.hpp"
 #include "core/estimator/mode_machine.hpp"
 #include "core/estimator/odometry_frame.hpp"
 #include "core/estimator/relocation.hpp"
@@ -138,6 +139,9 @@ class Estimator {
   StandstillResult begin_frame(const FrameFeatures& ff, WindowFrame& f);
   void initial_state(WindowFrame& f, const StandstillResult& rest);
   Eigen::Matrix3d c0_from_c1() const;  // right camera to left, from the current extrinsics
+  // The cameras' rotation and rates from the gyro between the window frame before f and f (for
+  // the bearing rates of estimate_td); not valid without two frames' IMU samples.
+  CameraMotion camera_motion(const WindowFrame& prev, const WindowFrame& f) const;
   void observe(const FrameFeatures& ff, WindowFrame& f, const StandstillResult& rest);
   void run_mode(WindowFrame& f, EstimatorTiming* timing);
   void guard_divergence(WindowFrame& f);

@@ -19,13 +19,25 @@ struct LandmarkObservation {
   bool has_right = false;
   Eigen::Vector3f bearing_left = Eigen::Vector3f::UnitZ();   // unit, cam0
   Eigen::Vector3f bearing_right = Eigen::Vector3f::UnitZ();  // unit, cam1
-  // 1/s, the bearing's rate of change at this frame (landmark_map.cpp: central difference over the
-  // frames before and after, one-sided at the ends of a track, zero for a single sighting): moves
+  // 1/s, the bearing's rate of change at this frame (landmark_map.cpp: its spin from the gyro when
+  // the CameraMotion is known, plus the central difference over the frames before and after, one-sided
+  // at the ends of a track, of what is left; a single sighting has its spin only): moves
   // the measurement to another time by the camera-IMU offset being estimated (estimate_td).
   Eigen::Vector3f velocity_left = Eigen::Vector3f::Zero();
   Eigen::Vector3f velocity_right = Eigen::Vector3f::Zero();
   bool has_rate_left = false;   // velocity_left holds a backward difference (from the frame before)
   bool has_rate_right = false;
+};
+
+// What the gyro says about the cameras between the previous window frame and this one (estimate_td):
+// a bearing's rate is its spin -w x b, known at the frame's own time, plus a translational part,
+// which is all the images are differenced for. Without it (valid false) the whole rate is
+// differenced: it then lags half a frame at the newest frame and a first sighting has none.
+struct CameraMotion {
+  bool valid = false;
+  Eigen::Matrix3f R_cur_prev[2];    // per camera: camera at this frame <- camera at the frame before
+  Eigen::Vector3f w_cur_rad_s[2];   // per camera: angular rate at this frame, in that camera
+  Eigen::Vector3f w_prev_rad_s[2];  // per camera: angular rate at the frame before, in that camera
 };
 
 enum class LandmarkGroup : std::uint8_t { k3D = 0, k2DLeft = 1, k2DRight = 2 };

@@ -52,24 +52,46 @@ namespace {
 // One camera's bearing rate between consecutive frames: the new observation gets the backward
 // difference; the previous one the mean of its backward difference and this one (a central
 // difference, centred on its own time), or this one alone when it was the track's first (often
-// the landmark's host: a host without a rate would leave its ray unmoved by the offset).
+// the landmark's host: a host without a rate would leave its ray unmoved by the offset). With the
+// gyro (m.valid) only the translational part is differenced: the spin -w x b is exact at each
+// frame's own time, so the newest frame's rate does not lag by half a frame.
 void difference(const Eigen::Vector3f& b_prev, const Eigen::Vector3f& b_new, float inv_dt, bool prev_had_rate,
-                Eigen::Vector3f* v_prev, Eigen::Vector3f* v_new) {
-  *v_new = (b_new - b_prev) * inv_dt;
-  *v_prev = prev_had_rate ? Eigen::Vector3f(0.5f * (*v_prev + *v_new)) : *v_new;
+                const CameraMotion& m, int cam, Eigen::Vector3f* v_prev, Eigen::Vector3f* v_new) {
+  if (!m.valid) {
+    *v_new = (b_new - b_prev) * inv_dt;
+    *v_prev = prev_had_rate ? Eigen::Vector3f(0.5f * (*v_prev + *v_new)) : *v_new;
+    return;
+  }
+  const Eigen::Vector3f spin_prev = -m.w_prev_rad_s[cam].cross(b_prev);
+  const Eigen::Vector3f u_new = (b_new - m.R_cur_prev[cam] * b_prev) * inv_dt;  // in the camera now
+  const Eigen::Vector3f u_at_prev = m.R_cur_prev[cam].transpose() * u_new;
+  *v_new = -m.w_cur_rad_s[cam].cross(b_new) + u_new;
+  *v_prev = spin_prev + (prev_had_rate ? Eigen::Vector3f(0.5f * (*v_prev - spin_prev + u_at_prev)) : u_at_prev);
+}
+
+// The rate of a sighting without one in the frame before: its spin, or nothing without the gyro.
+void spin_only(const CameraMotion& m, LandmarkObservation* ob) {
+  ob->velocity_left.setZero();
+  ob->velocity_right.setZero();
+  ob->has_rate_left = false;  // a pool slot may hold an earlier landmark's flags
+  ob->has_rate_right = false;
+  if (!m.valid) return;
+  if (ob->has_left) ob->velocity_left = -m.w_cur_rad_s[0].cross(ob->bearing_left);
+  if (ob->has_right) ob->velocity_right = -m.w_cur_rad_s[1].cross(ob->bearing_right);
 }
 
 // The bearing rates of `ob` (and the central ones of `last`) when the landmark's previous
 // observation was in prev_slot, the frame before.
-void set_velocities(LandmarkObservation* last, int prev_slot, double dt_s, LandmarkObservation* ob) {
-  ob->velocity_left.setZero();
-  ob->velocity_right.setZero();
+void set_velocities(LandmarkObservation* last, int prev_slot, double dt_s, const CameraMotion& m,
+                    LandmarkObservation* ob) {
+  spin_only(m, ob);
   if (last == nullptr || last->slot != prev_slot || !(dt_s > 0.0)) return;
   const float inv_dt = static_cast<float>(1.0 / dt_s);
   if (last->has_left && ob->has_left)
-    difference(last->bearing_left, ob->bearing_left, inv_dt, last->has_rate_left, &last->velocity_left, &ob->velocity_left);
+    difference(last->bearing_left, ob->bearing_left, inv_dt, last->has_rate_left, m, 0, &last->velocity_left,
+               &ob->velocity_left);
   if (last->has_right && ob->has_right)
-    difference(last->bearing_right, ob->bearing_right, inv_dt, last->has_rate_right, &last->velocity_right,
+    difference(last->bearing_right, ob->bearing_right, inv_dt, last->has_rate_right, m, 1, &last->velocity_right,
                &ob->velocity_right);
   ob->has_rate_left = last->has_left && ob->has_left;
   ob->has_rate_right = last->has_right && ob->has_right;
@@ -78,7 +100,7 @@ void set_velocities(LandmarkObservation* last, int prev_slot, double dt_s, Landm
 }  // namespace
 
 int LandmarkMap::ingest(const FrameFeatures& ff, int slot, const Eigen::Matrix3d& R_c0_c1, int prev_slot,
-                        double dt_s) {
+                        double dt_s, const CameraMotion& motion) {
   int dropped = 0;
   for (const FeatureObservation& o : ff.features) {
     const bool far = too_far_for_stereo(o, R_c0_c1);
@@ -103,7 +125,7 @@ int LandmarkMap::ingest(const FrameFeatures& ff, int slot, const Eigen::Matrix3d
     ob.has_right = o.has_right() && !far;
     ob.bearing_left = o.bearing_left;
     ob.bearing_right = o.bearing_right;
-    set_velocities(last, prev_slot, dt_s, &ob);
+    set_velocities(last, prev_slot, dt_s, motion, &ob);
     if (o.cls == FeatureClass::k3D && !far) l.stereo = true;
     l.track_length = o.track_length;
     // A host seen only on the right and later on the left keeps its right host (ids of 2D-right

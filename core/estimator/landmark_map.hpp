@@ -63,9 +63,10 @@ class LandmarkMap {
 
   // The frame's features as observations of window slot `slot`; returns how many found no room.
   // R_c0_c1 (right camera to left) measures a stereo match's parallax. prev_slot: the window
-  // frame before this one (-1: none), dt_s after it; a feature seen there gets bearing velocities.
+  // frame before this one (-1: none), dt_s after it; a feature seen there gets bearing velocities,
+  // with the gyro's spin taken out of the difference when `motion` is valid.
   int ingest(const FrameFeatures& ff, int slot, const Eigen::Matrix3d& R_c0_c1, int prev_slot = -1,
-             double dt_s = 0.0);
+             double dt_s = 0.0, const CameraMotion& motion = CameraMotion());
   // Removes the observations of a window frame, rehosting the landmarks it hosted, then compacts.
   void remove_frame(int slot, const Window& window, Rehost rehost);
   void clear_observations();  // every landmark leaves (then compacts)

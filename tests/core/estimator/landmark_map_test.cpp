@@ -200,3 +200,95 @@ TEST_CASE("LandmarkMap: bearing velocities, central inside a track, one-sided at
   map.ingest(*s.ff, slots[3], Eigen::Matrix3d::Identity(), slots[2], dt_s);
   CHECK(map.at_pool(map.find(3)).obs[0].velocity_left.norm() == 0.0f);
 }
+
+namespace {
+
+// A left camera at x = v t (m, v = 1 m/s), turning about y by theta(t) = w0 t + 1/2 a t^2 (w0 = 1 rad/s,
+// a = 5 rad/s^2: a sharp yaw), and a point 2 m ahead. The camera's rotation in the world: Ry(theta).
+struct TurningCamera {
+  static Eigen::Matrix3d R_w_c(double t_s) {
+    return Eigen::AngleAxisd(1.0 * t_s + 2.5 * t_s * t_s, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  }
+  static double w_rad_s(double t_s) { return 1.0 + 5.0 * t_s; }
+  static Eigen::Vector3d bearing(double t_s) {
+    const Eigen::Vector3d p_w(0.3, -0.2, 2.0), c_w(1.0 * t_s, 0.0, 0.0);
+    return (R_w_c(t_s).transpose() * (p_w - c_w)).normalized();
+  }
+  static Eigen::Vector3d rate(double t_s) {  // numeric d/dt, to 1e-8
+    const double h = 1e-6;
+    return (bearing(t_s + h) - bearing(t_s - h)) / (2.0 * h);
+  }
+  // What the estimator gives the map: the gyro's rotation and rates between frames at t0 and t1.
+  static ums::CameraMotion motion(double t0_s, double t1_s) {
+    ums::CameraMotion m;
+    m.valid = true;
+    for (int c = 0; c < 2; ++c) {
+      m.R_cur_prev[c] = (R_w_c(t1_s).transpose() * R_w_c(t0_s)).cast<float>();
+      m.w_cur_rad_s[c] = (w_rad_s(t1_s) * Eigen::Vector3d::UnitY()).cast<float>();
+      m.w_prev_rad_s[c] = (w_rad_s(t0_s) * Eigen::Vector3d::UnitY()).cast<float>();
+    }
+    return m;
+  }
+};
+
+// Feeds frames k = 0..n-1 (1/30 s apart) of the turning camera; the landmark's observations.
+const ums::Landmark& turning_track(Scene* s, ums::LandmarkMap* map, int n, bool gyro) {
+  const double dt_s = 1.0 / 30.0;
+  int prev = -1;
+  for (int k = 0; k < n; ++k) {
+    ums::WindowFrame& f = s->window.next();
+    s->window.push_next();
+    const int slot = s->window.slot_of(f);
+    s->window.choose_next_slot();
+    s->ff->features.clear();
+    ums::FeatureObservation o;
+    o.id = 7;
+    o.bearing_left = TurningCamera::bearing(k * dt_s).cast<float>();
+    s->ff->features.push_back(o);
+    const ums::CameraMotion m = gyro && k > 0 ? TurningCamera::motion((k - 1) * dt_s, k * dt_s) : ums::CameraMotion();
+    map->ingest(*s->ff, slot, Eigen::Matrix3d::Identity(), prev, k > 0 ? dt_s : 0.0, m);
+    prev = slot;
+  }
+  return map->at_pool(map->find(7));
+}
+
+}  // namespace
+
+TEST_CASE("LandmarkMap: with the gyro, bearing rates hold at the frame's own time, newest and first sightings too",
+          "[estimator][landmarks][td]") {
+  const double dt_s = 1.0 / 30.0;
+  auto error = [](const ums::LandmarkObservation& o, double t_s) {
+    return (o.velocity_left.cast<double>() - TurningCamera::rate(t_s)).norm();
+  };
+  Scene s_gyro, s_images;
+  ums::LandmarkMap with_gyro{ums::LandmarkMapOptions()}, images_only{ums::LandmarkMapOptions()};
+  const ums::Landmark& g = turning_track(&s_gyro, &with_gyro, 4, true);
+  const ums::Landmark& d = turning_track(&s_images, &images_only, 4, false);
+  REQUIRE(g.n_obs == 4);
+  REQUIRE(d.n_obs == 4);
+  // The true rate is about 1.1-1.7 rad/s. The newest frame: differencing alone lags half a frame
+  // (the turn accelerates at 5 rad/s^2: about 0.08 rad/s off); the spin from the gyro does not.
+  CHECK(error(d.obs[3], 3 * dt_s) > 0.05);
+  CHECK(error(g.obs[3], 3 * dt_s) < 0.01);
+  // Inside the track, central differences of the rest: within 0.01 rad/s.
+  CHECK(error(g.obs[1], dt_s) < 0.01);
+  CHECK(error(g.obs[2], 2 * dt_s) < 0.01);
+  // The track's first sighting (the host): its spin and the forward difference of the rest.
+  CHECK(error(g.obs[0], 0.0) < 0.01);
+  CHECK(error(d.obs[0], 0.0) > 0.05);
+  // A sighting with no frame before it has its spin only: most of the rate in a turn.
+  Scene s1;
+  ums::LandmarkMap one{ums::LandmarkMapOptions()};
+  s1.ff->features.clear();
+  ums::FeatureObservation o;
+  o.id = 9;
+  o.bearing_left = TurningCamera::bearing(0.1).cast<float>();
+  s1.ff->features.push_back(o);
+  ums::WindowFrame& f = s1.window.next();
+  s1.window.push_next();
+  one.ingest(*s1.ff, s1.window.slot_of(f), Eigen::Matrix3d::Identity(), -1, 0.0, TurningCamera::motion(0.0, 0.1));
+  const ums::LandmarkObservation& single = one.at_pool(one.find(9)).obs[0];
+  const Eigen::Vector3d spin = -(TurningCamera::w_rad_s(0.1) * Eigen::Vector3d::UnitY()).cross(TurningCamera::bearing(0.1));
+  CHECK((single.velocity_left.cast<double>() - spin).norm() < 1e-5);
+  CHECK(!single.has_rate_left);
+}
