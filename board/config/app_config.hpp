@@ -31,6 +31,7 @@ struct AppConfig {
   int max_num_iterations = 8;           // solver iterations per window solve (VINS max_num_iterations)
   bool estimate_extrinsic = false;      // refine T_b_c around the given values (VINS estimate_extrinsic 1)
   bool estimate_td = false;             // estimate the camera-IMU time offset (VINS estimate_td)
+  bool estimate_gyro_scale = false;     // estimate the gyro's per-axis scale-factor error
   // Back-end weights (ours; docs/results.md "Weights" has the measurements behind the defaults)
   double imu_noise_scale = 2.0;         // 1, multiplies the calibrated IMU white-noise densities
   double imu_walk_scale = 6.0;          // 1, multiplies the calibrated IMU bias random walks

@@ -28,6 +28,7 @@ EstimatorOptions estimator_options_from(const AppConfig& config, const ReplayPip
   o.keyframe.focal_px = static_cast<float>(o.focal_px);
   o.estimate_extrinsic = config.estimate_extrinsic;
   o.estimate_td = config.estimate_td;
+  o.estimate_gyro_scale = config.estimate_gyro_scale;
   o.max_iterations_round2 = config.max_num_iterations;
   o.round2_time_s = pipeline.deterministic ? std::numeric_limits<double>::infinity() : config.max_solver_time_s;
   o.preintegration.noise = ImuNoise::from_calibration(config.rig.imu);
@@ -347,6 +348,16 @@ void ReplayPipeline::write_time_offset_stats(JsonWriter& w) const {
       .value("clamped_solves", est.stats().td_clamped);
   if (est.options().estimate_td) write_td_series(w);
   w.end_object();
+  const Eigen::Vector3d s = est.window().gyro_scale().value() * 100.0;
+  w.begin_object("gyro_scale")
+      .value("estimated", est.options().estimate_gyro_scale)
+      .begin_array("estimate_pct")
+      .value(nullptr, s.x(), 4)
+      .value(nullptr, s.y(), 4)
+      .value(nullptr, s.z(), 4)
+      .end_array()
+      .value("clamped_solves", est.stats().gyro_scale_clamped)
+      .end_object();
 }
 
 // The estimate once per second of the run (the first frame with a pose in each second), as

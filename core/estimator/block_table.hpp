@@ -12,14 +12,16 @@
 namespace ums {
 
 // kRelocation: the loop keyframe's pose of a tightly coupled relocation (relocation.hpp), never
-// in the prior. kTimeOffset: the camera-IMU offset (time_offset.hpp), owner 0.
+// in the prior. kTimeOffset: the camera-IMU offset (time_offset.hpp), owner 0. kGyroScale: the
+// gyro's scale-factor error (gyro_scale.hpp), owner 0.
 enum class BlockKind : std::uint8_t {
   kPose = 0,
   kSpeedBias = 1,
   kExtrinsic = 2,
   kLandmark = 3,
   kRelocation = 4,
-  kTimeOffset = 5
+  kTimeOffset = 5,
+  kGyroScale = 6
 };
 
 struct BlockName {

@@ -48,6 +48,8 @@ ProblemBuilderOptions builder_options(const EstimatorOptions& o) {
   b.baseline_sigma_rad = o.baseline_sigma_deg * M_PI / 180.0;
   b.estimate_td = o.estimate_td;
   b.td_sigma_s = o.td_sigma_ms * 1e-3;
+  b.estimate_gyro_scale = o.estimate_gyro_scale;
+  b.gyro_scale_sigma = o.gyro_scale_sigma_pct * 1e-2;
   b.function_tolerance = o.function_tolerance;
   b.selection.budget = o.max_landmarks_in_solve;
   b.selection.share_2d = o.share_2d;
@@ -301,9 +303,9 @@ void Estimator::guard_divergence(WindowFrame& f) {
     x.set(Eigen::Isometry3d(x.calibration(0)), Eigen::Isometry3d(x.calibration(1)));
     builder_->hold_extrinsics();
   }
-  if (options_.estimate_td) {
-    window_->time_offset().reset();  // an offset that floated into a divergence is not trusted
-  }
+  // An offset or a scale that floated into a divergence is not trusted.
+  if (options_.estimate_td) window_->time_offset().reset();
+  if (options_.estimate_gyro_scale) window_->gyro_scale().reset();
 }
 
 void Estimator::write_output(const FrameFeatures& ff, const WindowFrame& f, EstimatorOutput* out) {

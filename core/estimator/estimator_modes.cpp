@@ -127,6 +127,8 @@ void Estimator::frame_vio(WindowFrame& f, EstimatorTiming* timing) {
                                                  : Eigen::Isometry3d::Identity();
   hold_gauge(T_w_b0_before);
   if (options_.estimate_td && window_->time_offset().clamp(options_.td_max_change_ms * 1e-3)) ++stats_.td_clamped;
+  if (options_.estimate_gyro_scale && window_->gyro_scale().clamp(options_.gyro_scale_max_pct * 1e-2))
+    ++stats_.gyro_scale_clamped;
   if (relocating) end_relocation(T_b0_loop, spec);
 }
 

@@ -32,6 +32,11 @@ struct EstimatorOptions {
   bool estimate_td = false;
   double td_sigma_ms = 50.0;
   double td_max_change_ms = 30.0;
+  // Estimate the gyroscope's per-axis scale-factor error in the VIO solves (gyro_scale.hpp), under
+  // a prior of gyro_scale_sigma_pct around zero, kept within gyro_scale_max_pct.
+  bool estimate_gyro_scale = false;
+  double gyro_scale_sigma_pct = 1.0;
+  double gyro_scale_max_pct = 3.0;
   PreintegrationOptions preintegration;  // noise: set from the rig calibration by the caller
   double imu_noise_inflation = 2.0;   // 1, multiplies the calibrated white-noise densities:
                                       // unmodelled vibration and timing (VINS-Fusion: EuRoC ~10x)

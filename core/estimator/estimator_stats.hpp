@@ -67,6 +67,7 @@ struct EstimatorStats {
   std::int64_t extrinsic_released_t_ns = -1;
   double max_rotation_excitation_deg = 0.0;
   std::uint64_t td_clamped = 0;  // estimate_td: VIO solves whose offset left td_max_change_ms
+  std::uint64_t gyro_scale_clamped = 0;  // estimate_gyro_scale: VIO solves beyond gyro_scale_max_pct
 };
 
 }  // namespace ums

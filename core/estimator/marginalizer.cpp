@@ -55,6 +55,8 @@ bool Marginalizer::marginalize_frame(FrameId id, Window& window, solver::Problem
       problem.add_pose_block(window.extrinsics().block(static_cast<int>(nm.owner)), &ids[i]);
     } else if (nm.kind == BlockKind::kTimeOffset) {
       problem.add_euclidean_block(window.time_offset().block(), 1, &ids[i]);
+    } else if (nm.kind == BlockKind::kGyroScale) {
+      problem.add_euclidean_block(window.gyro_scale().block(), 3, &ids[i]);
     } else {
       WindowFrame& f = window.slot(window.slot_of_id(nm.owner));
       if (nm.kind == BlockKind::kSpeedBias) {

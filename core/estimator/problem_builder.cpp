@@ -87,6 +87,10 @@ int ProblemBuilder::build(const SolveSpec& spec) {
     td_prior_.set(window_->time_offset().calibration_s(), options_.td_sigma_s);
     problem_->add_residual(&td_prior_, solver::RobustLoss::trivial(), {td_id_});
   }
+  if (options_.estimate_gyro_scale && spec.imu) {
+    gyro_scale_prior_.set(Eigen::Vector3d::Zero(), options_.gyro_scale_sigma);
+    problem_->add_residual(&gyro_scale_prior_, solver::RobustLoss::trivial(), {gs_id_});
+  }
   if (spec.prior && !marginalizer_->empty()) add_marginal_prior();
   return n_selected_;
 }
@@ -112,6 +116,11 @@ void ProblemBuilder::add_state_blocks(const SolveSpec& spec) {
     P.add_euclidean_block(w.time_offset().block(), 1, &td_id_);
     table_.note(td_id_, BlockKind::kTimeOffset, 0);
     P.set_constant(td_id_, !spec.imu);
+  }
+  if (options_.estimate_gyro_scale) {
+    P.add_euclidean_block(w.gyro_scale().block(), 3, &gs_id_);
+    table_.note(gs_id_, BlockKind::kGyroScale, 0);
+    P.set_constant(gs_id_, !spec.imu);
   }
   if (spec.fix_first_pose && w.size() > 0) P.set_constant(pose_id_[w.slot_at(0)], true);
 }
@@ -177,7 +186,13 @@ void ProblemBuilder::add_imu_terms() {
   for (int k = 1; k < w.size(); ++k) {
     const int si = w.slot_at(k - 1), sj = w.slot_at(k);
     if (!w.slot(sj).imu_ok) continue;
-    P.add_residual(&w.slot(sj).imu, solver::RobustLoss::trivial(), {pose_id_[si], sb_id_[si], pose_id_[sj], sb_id_[sj]});
+    ImuFactor* imu = &w.slot(sj).imu;
+    imu->set_gyro_scale(options_.estimate_gyro_scale);
+    if (options_.estimate_gyro_scale) {
+      P.add_residual(imu, solver::RobustLoss::trivial(), {pose_id_[si], sb_id_[si], pose_id_[sj], sb_id_[sj], gs_id_});
+    } else {
+      P.add_residual(imu, solver::RobustLoss::trivial(), {pose_id_[si], sb_id_[si], pose_id_[sj], sb_id_[sj]});
+    }
   }
   const int prior_slot = init_prior_frame_ == kNoFrame ? -1 : w.slot_of_id(init_prior_frame_);
   if (prior_slot >= 0) P.add_residual(&init_prior_, solver::RobustLoss::trivial(), {sb_id_[prior_slot]});
@@ -216,6 +231,11 @@ void ProblemBuilder::add_marginal_prior() {
     if (nm.kind == BlockKind::kTimeOffset) {
       ids[i] = td_id_;
       ok = td_id_ >= 0;
+      continue;
+    }
+    if (nm.kind == BlockKind::kGyroScale) {
+      ids[i] = gs_id_;
+      ok = gs_id_ >= 0;
       continue;
     }
     const int s = window_->slot_of_id(nm.owner);

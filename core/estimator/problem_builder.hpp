@@ -40,6 +40,8 @@ struct ProblemBuilderOptions {
   double baseline_sigma_m = 0.0005, baseline_sigma_rad = 0.001;  // the stereo pair's relative pose
   bool estimate_td = false;  // the time offset floats in the VIO solves (time_offset.hpp)
   double td_sigma_s = 0.05;  // s, prior around the calibration's td
+  bool estimate_gyro_scale = false;  // the gyro's scale-factor error floats in the VIO solves
+  double gyro_scale_sigma = 0.01;    // prior around zero (1 %)
   double function_tolerance = 1e-3;
   SelectionPolicy selection;
   double still_sigma_m = 0.002, still_sigma_rad = 0.001, still_sigma_v = 0.01;
@@ -136,6 +138,7 @@ class ProblemBuilder {
   int sb_id_[Window::kSlots] = {};
   int ext_id_[2] = {};
   int td_id_ = -1;  // with estimate_td
+  int gs_id_ = -1;  // with estimate_gyro_scale
   SpeedBiasPrior init_prior_;
   FrameId init_prior_frame_ = kNoFrame;
   SpeedBiasPrior zero_velocity_;
@@ -144,6 +147,7 @@ class ProblemBuilder {
   PosePrior extrinsic_prior_[2];
   RelativePosePrior baseline_prior_;
   ScalarPrior td_prior_;
+  Vector3Prior gyro_scale_prior_;
   const RelocationRequest* relocation_ = nullptr;
   double relocation_pose_[state::kPoseSize] = {};
   std::unique_ptr<BearingResidual[]> relocation_res_;

@@ -117,4 +117,10 @@ bool ScalarPrior::evaluate(const double* const* x, double* r, const solver::Jaco
   return std::isfinite(r[0]);
 }
 
+bool Vector3Prior::evaluate(const double* const* x, double* r, const solver::JacobianView* jac) const {
+  for (int a = 0; a < 3; ++a) r[a] = w_ * (x[0][a] - x0_[a]);
+  if (jac != nullptr && jac[0].wanted()) solver::jacobian_map<3, 3>(jac[0]) = w_ * Eigen::Matrix3d::Identity();
+  return std::isfinite(r[0]) && std::isfinite(r[1]) && std::isfinite(r[2]);
+}
+
 }  // namespace ums

@@ -84,4 +84,19 @@ class ScalarPrior final : public solver::ResidualFunction {
   double w_ = 1.0;
 };
 
+// x ~ x0 with sigma on each of a 3-double block (r = (x - x0) / sigma): the gyro scale's prior.
+class Vector3Prior final : public solver::ResidualFunction {
+ public:
+  void set(const Eigen::Vector3d& x0, double sigma) {
+    x0_ = x0;
+    w_ = 1.0 / sigma;
+  }
+  int num_residuals() const override { return 3; }
+  bool evaluate(const double* const* x, double* r, const solver::JacobianView* jac) const override;
+
+ private:
+  Eigen::Vector3d x0_ = Eigen::Vector3d::Zero();
+  double w_ = 1.0;
+};
+
 }  // namespace ums

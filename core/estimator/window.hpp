@@ -13,6 +13,7 @@
 #include "core/common/capacity.hpp"
 #include "core/common/state_layout.hpp"
 #include "core/estimator/extrinsics.hpp"
+#include "core/estimator/gyro_scale.hpp"
 #include "core/estimator/time_offset.hpp"
 #include "core/estimator/frame_id.hpp"
 #include "core/estimator/imu_factor.hpp"
@@ -75,6 +76,8 @@ class Window {
   const Extrinsics& extrinsics() const { return extrinsics_; }
   TimeOffset& time_offset() { return time_offset_; }
   const TimeOffset& time_offset() const { return time_offset_; }
+  GyroScale& gyro_scale() { return gyro_scale_; }
+  const GyroScale& gyro_scale() const { return gyro_scale_; }
 
  private:
   std::unique_ptr<WindowFrame[]> slots_;
@@ -84,6 +87,7 @@ class Window {
   FrameId next_id_ = 0;
   Extrinsics extrinsics_;
   TimeOffset time_offset_;
+  GyroScale gyro_scale_;
 };
 
 }  // namespace ums

@@ -15,6 +15,7 @@ void save_window(const Window& window, const LandmarkMap& landmarks, WindowBacku
     std::copy(x, x + state::kPoseSize, b->extrinsic[c]);
   }
   b->td_s = window.time_offset().value_s();
+  std::copy(window.gyro_scale().block(), window.gyro_scale().block() + 3, b->gyro_scale);
   landmarks.save_depths(&b->depths);
 }
 
@@ -27,6 +28,7 @@ void restore_window(const WindowBackup& b, Window* window, LandmarkMap* landmark
   for (int c = 0; c < 2; ++c) std::copy(b.extrinsic[c], b.extrinsic[c] + state::kPoseSize, window->extrinsics().block(c));
   window->extrinsics().sync();
   window->time_offset().block()[0] = b.td_s;
+  std::copy(b.gyro_scale, b.gyro_scale + 3, window->gyro_scale().block());
   landmarks->restore_depths(b.depths);
 }
 

@@ -14,6 +14,7 @@ struct WindowBackup {
   double sb[Window::kSlots][state::kSbSize];
   double extrinsic[2][state::kPoseSize];
   double td_s = 0.0;
+  double gyro_scale[3] = {0.0, 0.0, 0.0};
   LandmarkMap::DepthBackup depths;
 };
 

@@ -49,6 +49,7 @@ class ImuResidual {
                         const double* speedbias_j) const;
 
   const Preintegration::Matrix15& sqrt_information() const { return sqrt_information_; }
+  const Preintegration* preintegration() const { return pre_; }
 
  private:
   const Preintegration* pre_ = nullptr;
