@@ -333,21 +333,28 @@ void ReplayPipeline::write_estimator_stats(JsonWriter& w) const {
       .value("relocation_residuals", e.relocation_residuals)
       .end_object();
   write_time_offset_stats(w);
+  write_gyro_scale_stats(w);
   write_extrinsic_stats(w);
 }
 
 void ReplayPipeline::write_time_offset_stats(JsonWriter& w) const {
   const Estimator& est = *vio_.estimator();
-  // td_ms: the calibration's (applied to the frames by the aligner); estimate_ms: the window's at
-  // the end (the same unless estimate_td).
+  // td_ms: the calibration's; estimate_ms: the window's at the end (the same unless estimate_td);
+  // applied_ms: what the aligner stamps the frames with now (the estimate, with estimate_td).
   w.begin_object("time_offset")
       .value("td_ms", rig_td_s_ * 1e3, 4)
       .value("frames_held_for_imu", vio_.time_alignment().frames_held)
       .value("estimated", est.options().estimate_td)
       .value("estimate_ms", est.window().time_offset().value_s() * 1e3, 4)
+      .value("applied_ms", static_cast<double>(vio_.applied_td_ns()) * 1e-6, 4)
+      .value("frames_restamped", vio_.time_alignment().frames_restamped)
       .value("clamped_solves", est.stats().td_clamped);
   if (est.options().estimate_td) write_td_series(w);
   w.end_object();
+}
+
+void ReplayPipeline::write_gyro_scale_stats(JsonWriter& w) const {
+  const Estimator& est = *vio_.estimator();
   const Eigen::Vector3d s = est.window().gyro_scale().value() * 100.0;
   w.begin_object("gyro_scale")
       .value("estimated", est.options().estimate_gyro_scale)

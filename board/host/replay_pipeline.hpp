@@ -112,6 +112,7 @@ class ReplayPipeline final : public MeasurementSink, private FrameObserver {
   void write_estimator_stats(JsonWriter& w) const;
   void write_extrinsic_stats(JsonWriter& w) const;
   void write_time_offset_stats(JsonWriter& w) const;
+  void write_gyro_scale_stats(JsonWriter& w) const;
   void write_td_series(JsonWriter& w) const;
   void accumulate_features(const FrameFeatures& f);
 

@@ -34,11 +34,12 @@ void BearingResidual::bind(RelativePoseCache* cache, int host_slot, int host_cam
 }
 
 void BearingResidual::set_time_offset(const Eigen::Vector3d& v_host, const Eigen::Vector3d& v_target,
-                                      double td_applied_s) {
+                                      double td_applied_host_s, double td_applied_target_s) {
   has_td_ = true;
   v_host_ = v_host;
   v_target_ = v_target;
-  td_applied_s_ = td_applied_s;
+  td_applied_host_s_ = td_applied_host_s;
+  td_applied_target_s_ = td_applied_target_s;
 }
 
 int BearingResidual::num_blocks() const {
@@ -52,9 +53,9 @@ void BearingResidual::shifted_bearings(const double* const* parameters, Eigen::V
   *b_host = b_host_;
   *b_target = b_target_;
   if (!has_td_) return;
-  const double shift_s = parameters[num_blocks() - 1][0] - td_applied_s_;
-  *b_host -= shift_s * v_host_;
-  *b_target -= shift_s * v_target_;
+  const double td_s = parameters[num_blocks() - 1][0];
+  *b_host -= (td_s - td_applied_host_s_) * v_host_;
+  *b_target -= (td_s - td_applied_target_s_) * v_target_;
 }
 
 void BearingResidual::write_td_jacobian(const Eigen::Matrix<double, 2, 3>& D, const Eigen::Matrix3d& R_ct_ch,

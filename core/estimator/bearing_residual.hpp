@@ -17,9 +17,10 @@
 //
 // With a time offset (set_time_offset, estimate_td): one more block after rho, the camera-IMU
 // offset td (1 double, s). A frame is stamped with td_applied (the offset its time was corrected
-// by); the image was in fact taken td - td_applied later, so each measured bearing is moved back
-// along its image velocity v (1/s): b(td) = b - (td - td_applied) v, host and target alike
-// (VINS-Fusion's model; first order in the offset, which the aligner keeps to a few ms).
+// by, its own: the pipeline restamps new frames as td is refined); the image was in fact taken
+// td - td_applied later, so each measured bearing is moved back along its image velocity v (1/s):
+// b(td) = b - (td - td_applied) v, host and target each with their frame's td_applied
+// (VINS-Fusion's model; first order in what is left of the offset, well under a ms once settled).
 
 #include <cstdint>
 
@@ -46,8 +47,9 @@ class BearingResidual final : public solver::ResidualFunction {
   // its evaluation callback does it); it is written during evaluate(): one solve at a time.
   void bind(RelativePoseCache* cache, int host_slot, int host_cam, int target_slot, int target_cam);
   // Optional, after set(): the td block is appended. v_host, v_target: the measured bearings'
-  // velocities (1/s, in their cameras); td_applied_s: the offset the frames' stamps carry.
-  void set_time_offset(const Eigen::Vector3d& v_host, const Eigen::Vector3d& v_target, double td_applied_s);
+  // velocities (1/s, in their cameras); td_applied_*_s: the offset each frame's stamp carries.
+  void set_time_offset(const Eigen::Vector3d& v_host, const Eigen::Vector3d& v_target, double td_applied_host_s,
+                       double td_applied_target_s);
 
   int num_residuals() const override { return 2; }
   int num_blocks() const;
@@ -78,7 +80,7 @@ class BearingResidual final : public solver::ResidualFunction {
   Eigen::Matrix<double, 3, 2> tangent_ = Eigen::Matrix<double, 3, 2>::Zero();
   double weight_ = 1.0;
   bool has_td_ = false;
-  double td_applied_s_ = 0.0;
+  double td_applied_host_s_ = 0.0, td_applied_target_s_ = 0.0;
   Eigen::Vector3d v_host_ = Eigen::Vector3d::Zero();    // 1/s
   Eigen::Vector3d v_target_ = Eigen::Vector3d::Zero();  // 1/s
 };

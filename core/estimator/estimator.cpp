@@ -185,6 +185,7 @@ StandstillResult Estimator::begin_frame(const FrameFeatures& ff, WindowFrame& f)
   ++stats_.frames;
   if (stats_.first_frame_t_ns < 0) stats_.first_frame_t_ns = ff.t_ns;
   f.t_ns = ff.t_ns;
+  f.td_applied_s = 1e-9 * static_cast<double>(ff.td_ns);
   f.keyframe = false;
   if (!imu_->close_interval(f.t_ns)) ++stats_.drops_imu;
   f.imu_ok = imu_->interval_open() && f.pre.num_samples() >= 2 && f.imu.residual().init(&f.pre, g_w_) == Status::kOk;

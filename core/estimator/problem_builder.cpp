@@ -125,11 +125,16 @@ void ProblemBuilder::add_state_blocks(const SolveSpec& spec) {
   if (spec.fix_first_pose && w.size() > 0) P.set_constant(pose_id_[w.slot_at(0)], true);
 }
 
-EdgeTimeOffset ProblemBuilder::edge_time_offset() const {
-  return EdgeTimeOffset{options_.estimate_td, window_->time_offset().calibration_s()};
+void ProblemBuilder::refresh_edge_time_offset() {
+  edge_td_.on = options_.estimate_td;
+  for (int k = 0; k < window_->size(); ++k) {
+    const int s = window_->slot_at(k);
+    edge_td_.td_applied_s[s] = window_->slot(s).td_applied_s;
+  }
 }
 
 void ProblemBuilder::add_landmarks(std::uint8_t groups) {
+  refresh_edge_time_offset();
   // A relocation looks its landmarks up by pool index: those not chosen must read as absent.
   if (relocation_ != nullptr) std::fill(block_of_landmark_.get(), block_of_landmark_.get() + capacity::kMaxLandmarks, -1);
   const int keep = select_landmarks(*landmarks_, groups, options_.selection, chosen_.get());
@@ -167,7 +172,7 @@ bool ProblemBuilder::add_landmark_edges(int pool_idx, int lm_block) {
   for_each_visual_edge(l, [&](const VisualEdge& e) {
     BearingResidual& r = visual_[n_visual_];
     EdgeBlock blocks[kMaxEdgeBlocks];
-    const int nb = setup_visual_edge(l, e, w, pose_cache_.get(), &r, blocks, edge_time_offset());
+    const int nb = setup_visual_edge(l, e, w, pose_cache_.get(), &r, blocks, edge_td_);
     solver::BlockId ids[kMaxEdgeBlocks];
     for (int i = 0; i < nb; ++i) ids[i] = block_id(blocks[i], lm_block);
     if (problem_->add_residual(&r, huber, ids, nb) != solver::SolverStatus::kOk) {
@@ -363,6 +368,7 @@ int ProblemBuilder::mark_outliers() {
   // A landmark with any observation farther than outlier_rad from its prediction is dropped (it
   // leaves the map; the front end keeps tracking it and it comes back as a new landmark).
   pose_cache_->invalidate();  // evaluated outside a solve: the window may have moved since
+  refresh_edge_time_offset();
   int marked = 0;
   for (int i = 0; i < n_selected_; ++i) {
     Landmark& l = landmarks_->at_pool(chosen_[i]);
@@ -374,7 +380,7 @@ int ProblemBuilder::mark_outliers() {
     for_each_visual_edge(l, [&](const VisualEdge& e) {
       BearingResidual r;
       EdgeBlock blocks[kMaxEdgeBlocks];
-      const int nb = setup_visual_edge(l, e, 1.0, pose_cache_.get(), &r, blocks, edge_time_offset());
+      const int nb = setup_visual_edge(l, e, 1.0, pose_cache_.get(), &r, blocks, edge_td_);
       const double* params[kMaxEdgeBlocks];
       for (int b = 0; b < nb; ++b) {
         const EdgeBlock& eb = blocks[b];

@@ -113,7 +113,7 @@ class ProblemBuilder {
   bool extrinsics_float(const SolveSpec& spec) const {
     return options_.estimate_extrinsic && extrinsics_released_ && spec.imu;
   }
-  EdgeTimeOffset edge_time_offset() const;
+  void refresh_edge_time_offset();  // edge_td_ from the window's frames
   void add_marginal_prior();
   void add_relocation_terms();
   // The request's matches whose landmarks qualify (see set_relocation), as match indices.
@@ -138,6 +138,7 @@ class ProblemBuilder {
   int sb_id_[Window::kSlots] = {};
   int ext_id_[2] = {};
   int td_id_ = -1;  // with estimate_td
+  EdgeTimeOffset edge_td_;
   int gs_id_ = -1;  // with estimate_gyro_scale
   SpeedBiasPrior init_prior_;
   FrameId init_prior_frame_ = kNoFrame;

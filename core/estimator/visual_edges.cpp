@@ -34,7 +34,7 @@ int setup_visual_edge(const Landmark& l, const VisualEdge& e, double w, Relative
   if (td.on) {
     const int ho = l.find_obs(h);
     const Eigen::Vector3d v_host = ho < 0 ? Eigen::Vector3d::Zero() : velocity(l.obs[ho], l.host_cam);
-    r->set_time_offset(v_host, velocity(o, e.cam), td.td_applied_s);
+    r->set_time_offset(v_host, velocity(o, e.cam), td.td_applied_s[h], td.td_applied_s[o.slot]);
     blocks[nb++] = EdgeBlock{EdgeBlock::kTimeOffset, 0};
   }
   return nb;

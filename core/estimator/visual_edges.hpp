@@ -7,6 +7,7 @@
 
 #include <Eigen/Core>
 
+#include "core/common/capacity.hpp"
 #include "core/estimator/bearing_residual.hpp"
 #include "core/estimator/landmark.hpp"
 
@@ -23,10 +24,11 @@ struct EdgeBlock {
 // The most blocks an edge reads (two poses, two extrinsics, inverse depth, time offset).
 inline constexpr int kMaxEdgeBlocks = 6;
 
-// Whether edges read the time offset block (estimate_td) and the offset the frames carry.
+// Whether edges read the time offset block (estimate_td), and the offset each window slot's frame
+// carries (WindowFrame::td_applied_s: the pipeline restamps new frames as td is refined).
 struct EdgeTimeOffset {
   bool on = false;
-  double td_applied_s = 0.0;  // s
+  double td_applied_s[capacity::kWindowSize + 1] = {};  // s, by window slot
 };
 
 struct VisualEdge {

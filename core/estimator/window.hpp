@@ -24,6 +24,7 @@ namespace ums {
 struct WindowFrame {
   FrameId id = kNoFrame;
   std::int64_t t_ns = 0;   // IMU clock
+  double td_applied_s = 0.0;  // s, the camera-IMU offset t_ns carries (the image was taken at t - td_applied + td)
   double pose[state::kPoseSize] = {0, 0, 0, 0, 0, 0, 1};
   double sb[state::kSbSize] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
   Preintegration pre;      // previous window frame -> this one

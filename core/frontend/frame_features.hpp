@@ -79,6 +79,7 @@ struct FrontendFrameStats {
 
 struct FrameFeatures {
   std::int64_t t_ns = 0;
+  std::int64_t td_ns = 0;  // the camera-IMU offset t_ns carries (StereoFrame::td_ns)
   std::uint64_t seq = 0;
   FixedVector<FeatureObservation, capacity::kMaxFeaturesPerCamera> features;  // max_cnt <= this
   int n_3d = 0;

@@ -383,6 +383,7 @@ void Frontend::detect_right(FrontendFrameStats* st) {
 
 void Frontend::write_output(const StereoFrame& frame, FrameFeatures* out) const {
   out->t_ns = frame.t_ns;
+  out->td_ns = frame.td_ns;
   out->seq = frame.seq;
   for (const LeftTrack& t : left_) {
     FeatureObservation o;

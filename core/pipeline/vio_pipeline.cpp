@@ -12,7 +12,7 @@ namespace ums {
 VioPipeline::VioPipeline(const VioPipelineOptions& options, const FrontendOptions& frontend,
                          const EstimatorOptions& estimator, const RigCalibration& rig)
     : aligner_(static_cast<std::int64_t>(std::llround(rig.td_s * 1e9)), std::max(rig.cam[0].width, rig.cam[1].width),
-               std::max(rig.cam[0].height, rig.cam[1].height)),
+               std::max(rig.cam[0].height, rig.cam[1].height), td_range_ns(options, estimator)),
       saturation_(options.saturation),
       frontend_(frontend, rig),
       estimator_(options.frontend_only ? nullptr : new Estimator(estimator, rig)),
@@ -23,6 +23,11 @@ VioPipeline::VioPipeline(const VioPipelineOptions& options, const FrontendOption
       q_b_c0_((rig.imu.T_b_i.inverse() * rig.cam[0].T_b_c).rotation()) {}
 
 VioPipeline::~VioPipeline() = default;
+
+std::int64_t VioPipeline::td_range_ns(const VioPipelineOptions& options, const EstimatorOptions& estimator) {
+  if (options.frontend_only || !estimator.estimate_td) return 0;
+  return static_cast<std::int64_t>(std::llround(estimator.td_max_change_ms * 1e6));
+}
 
 void VioPipeline::on_imu(const ImuSample& sample) { aligner_.on_imu(sample, &aligned_); }
 
@@ -85,6 +90,9 @@ void VioPipeline::run_estimator(const StereoFrame& frame) {
   record_.estimated = true;
   const EstimatorOutput& est = record_.estimate;
   if (est.keyframe) ++counters_.keyframes;
+  // The next frames are stamped with the offset as now estimated (held at the calibration
+  // without estimate_td): the window then models only what is left of it.
+  aligner_.set_td_ns(static_cast<std::int64_t>(std::llround(est.td_s * 1e9)));
   if (est.valid && pose_sink_ != nullptr) pose_sink_->on_frame_pose(est);
   // A frame the estimator refused (out of order) repeats the previous output: nothing settled.
   const bool processed = estimator_->stats().frames_out_of_order == refused_before;

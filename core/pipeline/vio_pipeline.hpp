@@ -5,7 +5,8 @@
 //   on_imu:    time order check -> saturation element -> gyro rotation hint -> Estimator::add_imu
 //              -> PoseSink::on_imu_pose (once a pose exists)
 //   (both through TimeAligner first: + rig td_s, the only place the camera-IMU offset is applied,
-//   and IMU-time order restored when td_s is not 0)
+//   and IMU-time order restored when td_s is not 0; with estimate_td each processed frame moves
+//   the offset for the next ones to the estimator's, within td_max_change_ms of td_s)
 //   on_stereo: Frontend (with the
 //              hint) -> Estimator::add_frame -> PoseSink::on_frame_pose (when valid),
 //              KeyframeImageSink::on_keyframe_image (the previous frame, when this frame's window
@@ -101,6 +102,7 @@ class VioPipeline final : public MeasurementSink {
   const Estimator* estimator() const { return estimator_.get(); }  // nullptr with frontend_only
   const VioPipelineCounters& counters() const { return counters_; }
   const TimeAlignerCounters& time_alignment() const { return aligner_.counters(); }
+  std::int64_t applied_td_ns() const { return aligner_.td_ns(); }  // the offset new frames get
   const VioFrameRecord& last_frame() const { return record_; }  // the last frame processed
   const FrameFeatures& features() const { return *features_; }  // the last frame's (frontend_status kOk)
 
@@ -112,6 +114,7 @@ class VioPipeline final : public MeasurementSink {
     void on_stereo(const StereoFrame& frame) override { pipeline->process_stereo(frame); }
     VioPipeline* pipeline;
   };
+  static std::int64_t td_range_ns(const VioPipelineOptions& options, const EstimatorOptions& estimator);
   void process_imu(const ImuSample& sample);
   void process_stereo(const StereoFrame& frame_imu_clock);
   void integrate_hint(const ImuSample& sample, const ImuSample& clipped);

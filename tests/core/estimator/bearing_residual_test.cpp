@@ -168,7 +168,7 @@ TEST_CASE("bearing residual with a time offset: bearings moved along their veloc
     // The host bearing's shift is first order: the landmark sits on the moved ray.
     ums::BearingResidual r;
     r.set(ums::BearingResidual::Kind::kTwoFrames, same_cam, b_host_meas, b_t_meas.normalized(), w);
-    r.set_time_offset(v_host, v_target, td_applied_s);
+    r.set_time_offset(v_host, v_target, td_applied_s, td_applied_s);
     CHECK(r.num_blocks() == (same_cam ? 5 : 6));
     double td = td_true_s;
     const double* p5[] = {s.pose_h, s.pose_t, s.ext0, &s.rho, &td};
@@ -213,7 +213,7 @@ TEST_CASE("bearing residual with a time offset: bearings moved along their veloc
     const Eigen::Vector3d b_t_meas = s.truth(true, s.ext1) + td_true_s * v_target;
     ums::BearingResidual r;
     r.set(ums::BearingResidual::Kind::kSameFrame, false, b_host_meas, b_t_meas.normalized(), w);
-    r.set_time_offset(v_host, v_target, td_applied_s);
+    r.set_time_offset(v_host, v_target, td_applied_s, td_applied_s);
     double td = td_true_s;
     const double* p[] = {s.ext0, s.ext1, &s.rho, &td};
     double err = 0.0;
@@ -223,4 +223,32 @@ TEST_CASE("bearing residual with a time offset: bearings moved along their veloc
     CHECK(ums::test::max_jacobian_error(r, {{s.ext0, 7, true}, {s.ext1, 7, true}, {&s.rho, 1, false}, {&td, 1, false}}) <
           1e-6);
   }
+}
+
+TEST_CASE("bearing residual with a time offset: host and target frames each carry their own applied offset",
+          "[estimator][td]") {
+  Scene s;
+  const double w = 460.0 / 1.5;
+  // The host frame went out before td was known (stamp corrected by 0), the target after the
+  // pipeline had restamped by the estimate (12 ms): only the host bearing is 12 ms late.
+  const double td_true_s = 0.012, applied_host_s = 0.0, applied_target_s = 0.012;
+  const Eigen::Vector3d v_host(0.4, -0.2, -0.02), v_target(-0.3, 0.5, 0.01);  // 1/s
+  const Eigen::Vector3d b_host_meas = (s.b_host + (td_true_s - applied_host_s) * v_host).normalized();
+  const Eigen::Vector3d b_t_meas =
+      (s.truth(false, s.ext0) + (td_true_s - applied_target_s) * v_target).normalized();
+  double td = td_true_s;
+  const double* p[] = {s.pose_h, s.pose_t, s.ext0, &s.rho, &td};
+  ums::BearingResidual own;
+  own.set(ums::BearingResidual::Kind::kTwoFrames, true, b_host_meas, b_t_meas, w);
+  own.set_time_offset(v_host, v_target, applied_host_s, applied_target_s);
+  ums::BearingResidual shared = own;  // both read as the host's 0
+  shared.set_time_offset(v_host, v_target, applied_host_s, applied_host_s);
+  double err_own = 0.0, err_shared = 0.0;
+  REQUIRE(own.error_rad(p, &err_own));
+  REQUIRE(shared.error_rad(p, &err_shared));
+  CHECK(err_own * 460.0 < 0.05);    // px: second order only
+  CHECK(err_shared * 460.0 > 1.0);  // px: 12 ms of the target's 0.58 rad/s motion is 3 px
+  td = 0.007;
+  CHECK(ums::test::max_jacobian_error(own, {{s.pose_h, 7, true}, {s.pose_t, 7, true}, {s.ext0, 7, true},
+                                            {&s.rho, 1, false}, {&td, 1, false}}) < 1e-6);
 }

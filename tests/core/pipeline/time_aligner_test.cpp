@@ -6,6 +6,7 @@
 #include <catch2/catch.hpp>
 
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "profiling/alloc_counter.hpp"
@@ -169,4 +170,105 @@ TEST_CASE("TimeAligner: holding frames and samples allocates nothing", "[pipelin
     }
     CHECK(scope.allocations() == 0);
   }
+}
+
+namespace {
+
+// Stands in for the pipeline with estimate_td: every frame it is handed moves the offset for the
+// next ones to the following value of a schedule (the estimator's refinement).
+struct Follower final : MeasurementSink {
+  Follower(TimeAligner* a, std::vector<std::int64_t> schedule_ns) : aligner(a), schedule(std::move(schedule_ns)) {
+    rec.items.reserve(4096);
+  }
+  void on_imu(const ImuSample& s) override { rec.on_imu(s); }
+  void on_stereo(const StereoFrame& f) override {
+    rec.on_stereo(f);
+    cam_t_ns.push_back(f.t_ns - f.td_ns);
+    td_ns.push_back(f.td_ns);
+    if (k < schedule.size()) aligner->set_td_ns(schedule[k++]);
+  }
+  TimeAligner* aligner;
+  std::vector<std::int64_t> schedule;
+  std::size_t k = 0;
+  Recorder rec;
+  std::vector<std::int64_t> cam_t_ns, td_ns;
+};
+
+}  // namespace
+
+TEST_CASE("TimeAligner: a refined offset restamps the next frames, across zero, IMU-time order kept", "[pipeline]") {
+  // The calibration says 0 and allows 10 ms; the true offset is +6 ms (camera 6 ms early). The
+  // estimate walks 0 -> -4 -> +6 ms and asks for 30 ms once (clamped).
+  TimeAligner aligner(0, 8, 4, 10 * kMs);
+  Follower out(&aligner, {-2 * kMs, -4 * kMs, 30 * kMs, 6 * kMs});
+  std::vector<std::uint8_t> left(8 * 4, 1), right(8 * 4, 1);
+  std::int64_t next_cam = 4 * kMs;  // camera stamps 4, 54, 104 ... (IMU time 10, 60, 110 ...)
+  for (std::int64_t t = 0; t <= 500 * kMs; t += 5 * kMs) {
+    while (next_cam < t) {
+      StereoFrame f;
+      f.t_ns = next_cam;
+      f.left = ImageView{left.data(), 8, 4, 8};
+      f.right = ImageView{right.data(), 8, 4, 8};
+      aligner.on_stereo(f, &out);
+      next_cam += 50 * kMs;
+    }
+    ImuSample s;
+    s.t_ns = t;
+    aligner.on_imu(s, &out);
+  }
+  aligner.flush(&out);
+  check_order(out.rec);
+  REQUIRE(out.td_ns.size() == 10);
+  // Each frame carries the offset set after the one before it, 30 ms clamped to the 10 ms range.
+  const std::int64_t expect[] = {0, -2 * kMs, -4 * kMs, 10 * kMs, 6 * kMs, 6 * kMs};
+  for (int i = 0; i < 6; ++i) CHECK(out.td_ns[i] == expect[i]);
+  for (std::size_t i = 0; i < out.cam_t_ns.size(); ++i) CHECK(out.cam_t_ns[i] == 4 * kMs + 50 * kMs * static_cast<std::int64_t>(i));
+  CHECK(aligner.td_ns() == 6 * kMs);
+  CHECK(aligner.counters().frames_held >= 6);  // the positive offsets wait for the IMU
+  CHECK(aligner.counters().frames_restamped == 0);
+}
+
+TEST_CASE("TimeAligner: a frame whose offset fell below a sample already let go goes on at that sample",
+          "[pipeline]") {
+  TimeAligner aligner(0, 8, 4, 10 * kMs);
+  Recorder out;
+  aligner.set_td_ns(-2 * kMs);
+  for (std::int64_t t = 0; t <= 20 * kMs; t += 5 * kMs) {
+    ImuSample s;
+    s.t_ns = t;
+    aligner.on_imu(s, &out);  // held by 2 ms: 0 .. 15 ms go on
+  }
+  REQUIRE(out.items.size() == 4);
+  aligner.set_td_ns(-8 * kMs);
+  std::vector<std::uint8_t> img(32, 3);
+  StereoFrame f;
+  f.t_ns = 22 * kMs;  // 14 ms on the IMU clock: the 15 ms sample has gone on already
+  f.left = f.right = ImageView{img.data(), 8, 4, 8};
+  aligner.on_stereo(f, &out);
+  aligner.flush(&out);
+  check_order(out);
+  REQUIRE(out.items.size() == 6);
+  CHECK(out.items[4].frame);
+  CHECK(out.items[4].t_ns == 15 * kMs);  // 1 ms later than asked, never before a sample
+  CHECK(aligner.counters().frames_restamped == 1);
+}
+
+TEST_CASE("TimeAligner: a refined offset allocates nothing per frame", "[pipeline]") {
+  TimeAligner aligner(0, 8, 4, 10 * kMs);
+  Recorder out;
+  std::vector<std::uint8_t> img(32, 7);
+  AllocScope scope;
+  for (int i = 0; i < 200; ++i) {
+    ImuSample s;
+    s.t_ns = i * 5 * kMs;
+    aligner.on_imu(s, &out);
+    if (i % 10 == 5) {
+      aligner.set_td_ns((i % 20 == 5 ? -7 : 7) * kMs);
+      StereoFrame f;
+      f.t_ns = s.t_ns;
+      f.left = f.right = ImageView{img.data(), 8, 4, 8};
+      aligner.on_stereo(f, &out);
+    }
+  }
+  CHECK(scope.allocations() == 0);
 }
