@@ -15,6 +15,7 @@ usage: umsvins <command> [options]
   replay <dataset> [--config F] [--out DIR] [--start S] [--duration S] [--realtime]
                    [--frontend-only] [--quiet] [--deterministic] [--mavlink ...]
                    [--loop | --vocabulary F] [--load-map F] [--save-map F] [--map-spread-s S]
+                   [--fault KIND:START_S:DURATION_S[:PARAM][,...]] [--fault-seed N]
       Run on an EuRoC-layout folder (the one holding mav0/). Writes DIR/stats.json
       (and DIR/trajectory.tum, DIR/report.html where those stages exist). Default DIR: out/replay.
       --loop: loop closure with the built-in vocabulary (--vocabulary F: with that one, from
@@ -25,6 +26,9 @@ usage: umsvins <command> [options]
       --mavlink the map frame goes out, each correction a reset or, with --map-spread-s S, a ramp.
       --no-tight-relocation: loops keep the verifier's measurement (no refinement in the window).
       --deterministic: solver rounds bounded by iterations, not wall time (same result anywhere).
+      --fault: sensor faults on the way in (docs/robustness.md): imu-gap, imu-nan, imu-huge,
+      imu-dup, imu-swap, frame-gap, frame-drop (PARAM probability), frame-freeze, frame-dup,
+      right-lost, blackout, clock-jump (PARAM s), images-end; counted in stats.json "faults".
       MAVLink (replay and live): --mavlink udp:HOST:PORT|serial:PATH[:BAUD] sends ODOMETRY to a
       flight controller (docs/mavlink.md); --mavlink-rate HZ (default 30), --mavlink-imu-rate,
       --mavlink-vision (also VISION_POSITION/SPEED_ESTIMATE), --mavlink-sysid N (default 1).

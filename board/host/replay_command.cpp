@@ -17,6 +17,7 @@
 #include "board/config/app_config.hpp"
 #include "board/host/cli_args.hpp"
 #include "board/host/commands.hpp"
+#include "board/host/fault_args.hpp"
 #include "board/host/loop_session.hpp"
 #include "board/host/mavlink_args.hpp"
 #include "board/host/replay_pipeline.hpp"
@@ -233,7 +234,10 @@ struct StreamResult {
 
 // Every IMU sample and stereo pair of the dataset through the pipeline, paced by the data's own
 // clock with --realtime (as a live sensor would deliver it).
-StreamResult stream(hal::EurocReader& reader, ReplayPipeline& pipeline, bool realtime, bool quiet, std::ostream& err) {
+// faults: between the reader and the pipeline (replay --fault), or nullptr.
+StreamResult stream(hal::EurocReader& reader, ReplayPipeline& pipeline, hal::FaultInjector* faults, bool realtime,
+                    bool quiet, std::ostream& err) {
+  MeasurementSink& in = faults != nullptr ? static_cast<MeasurementSink&>(*faults) : pipeline;
   Progress progress("replay", static_cast<unsigned long>(reader.total_pairs_estimate()));
   const auto wall_start = std::chrono::steady_clock::now();
   std::int64_t first_t_ns = -1;
@@ -246,12 +250,13 @@ StreamResult stream(hal::EurocReader& reader, ReplayPipeline& pipeline, bool rea
     if (first_t_ns < 0) first_t_ns = t_ns;
     if (realtime) std::this_thread::sleep_until(wall_start + std::chrono::nanoseconds(t_ns - first_t_ns));
     if (event == hal::EurocReader::Event::kImu) {
-      pipeline.on_imu(imu);
+      in.on_imu(imu);
     } else {
-      pipeline.on_stereo(frame);
+      in.on_stereo(frame);
       if (!quiet) progress.update(static_cast<unsigned long>(pipeline.frames()));
     }
   }
+  if (faults != nullptr) faults->flush();
   pipeline.end_of_input();
   if (reader.status() != Status::kOk) {
     // The files changed under us after open() validated them: say where, keep what was done.
@@ -372,7 +377,8 @@ hal::EurocReaderOptions reader_options_of(const Args& args) {
 
 int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
   const Args args("replay", argv, with_mavlink_flags({"realtime", "frontend-only", "quiet", "deterministic", "loop", "no-tight-relocation"}),
-                  with_mavlink_valued({"config", "out", "start", "duration", "vocabulary", "load-map", "save-map", "map-spread-s"}));
+                  with_mavlink_valued({"config", "out", "start", "duration", "vocabulary", "load-map", "save-map", "map-spread-s",
+                                       "fault", "fault-seed"}));
   args.require_positionals(1, "<dataset> (the folder holding mav0/)");
   const std::string dataset = args.positionals()[0];
   const std::filesystem::path out_dir = args.get_or("out", "out/replay");
@@ -404,7 +410,8 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
   if (loop != nullptr) loop->attach(pipeline);
   attach_mavlink(mavlink.get(), loop.get(), pipeline);
 
-  const StreamResult run = stream(reader, pipeline, args.has("realtime"), args.has("quiet"), err);
+  std::unique_ptr<hal::FaultInjector> faults = faults_from_args(args, &pipeline);
+  const StreamResult run = stream(reader, pipeline, faults.get(), args.has("realtime"), args.has("quiet"), err);
   const hal::EurocReaderCounters& counters = reader.counters();
   const ReplaySummary summary = pipeline.summary();
   close_estimate_files(&files, pipeline);
@@ -417,6 +424,7 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
   w.value("wall_s", run.wall_s, 4);
   w.value("peak_rss_kb", static_cast<std::int64_t>(run.peak_rss_kb));
   pipeline.write_stats(w);
+  if (faults != nullptr) write_fault_stats(*args.get("fault"), faults->counters(), w);
   finish_mavlink(mavlink.get(), pipeline, w, out_dir, err);
   // An output that could not be written: exit 1 after the rest.
   const bool failed_write = !finish_loop(loop.get(), pipeline, w, err);

@@ -324,6 +324,7 @@ void ReplayPipeline::write_estimator_stats(JsonWriter& w) const {
       .value("align_unobservable", e.align_unobservable)
       .value("align_tilt_sigma_deg", e.align_tilt_sigma_deg)
       .value("imu_samples_held", e.imu_held)
+      .value("imu_gap_frames", e.imu_gap_frames)
       .value("still_frames", e.still_frames)
       .value("still_rejected_by_vision", e.still_rejected_by_vision)
       .value("resets", e.resets)

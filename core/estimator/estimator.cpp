@@ -74,7 +74,7 @@ Estimator::Estimator(const EstimatorOptions& options, const RigCalibration& rig)
       g_w_(0.0, 0.0, -options.gravity_m_s2),
       keyframes_(options.keyframe),
       window_(std::make_unique<Window>(options_.preintegration)),
-      imu_(std::make_unique<ImuBuffer>()),
+      imu_(std::make_unique<ImuBuffer>(static_cast<std::int64_t>(options_.imu_max_gap_ms * 1e6))),
       landmarks_(std::make_unique<LandmarkMap>(landmark_options(options_))),
       marginalizer_(std::make_unique<Marginalizer>()),
       stage_backup_(std::make_unique<WindowBackup>()),
@@ -188,6 +188,7 @@ StandstillResult Estimator::begin_frame(const FrameFeatures& ff, WindowFrame& f)
   f.td_applied_s = 1e-9 * static_cast<double>(ff.td_ns);
   f.keyframe = false;
   if (!imu_->close_interval(f.t_ns)) ++stats_.drops_imu;
+  if (imu_->interval_has_gap()) ++stats_.imu_gap_frames;
   f.imu_ok = imu_->interval_open() && f.pre.num_samples() >= 2 && f.imu.residual().init(&f.pre, g_w_) == Status::kOk;
   StandstillResult rest;
   f.still = initializer_->imu_at_rest(f.t_ns, imu_.get(), &rest);

@@ -49,6 +49,7 @@ void EstimatorOptions::validate() const {
   require(baseline_sigma_deg > 0.0, "baseline_sigma_deg", baseline_sigma_deg);
   require(td_sigma_ms > 0.0, "td_sigma_ms", td_sigma_ms);
   require(td_max_change_ms > 0.0, "td_max_change_ms", td_max_change_ms);
+  require(imu_max_gap_ms > 0.0 && imu_max_gap_ms <= 10000.0, "imu_max_gap_ms", imu_max_gap_ms);
   require(gyro_scale_sigma_pct > 0.0, "gyro_scale_sigma_pct", gyro_scale_sigma_pct);
   require(gyro_scale_max_pct > 0.0, "gyro_scale_max_pct", gyro_scale_max_pct);
   preintegration.validate();

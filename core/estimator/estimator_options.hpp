@@ -43,6 +43,11 @@ struct EstimatorOptions {
   double imu_walk_inflation = 6.0;    // 1, multiplies the calibrated bias random walks: the
                                       // biases between keyframes seconds apart must be free to
                                       // move (docs/results.md "Weights" has the measurement)
+  // ms: a longer time between IMU samples is a hole (samples lost), counted per frame whose IMU
+  // interval spans one (stats imu_gap_frames). Far above any IMU's period (5 ms at 200 Hz, 16 ms
+  // for a D455's 63 Hz accel). The interval is still integrated with the last sample held across
+  // the hole: what to do instead is open (docs/robustness.md).
+  double imu_max_gap_ms = 50.0;
   KeyframeOptions keyframe;
 
   // --- window and features ---

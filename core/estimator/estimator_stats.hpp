@@ -54,6 +54,7 @@ struct EstimatorStats {
   std::uint64_t drops_residuals = 0;    // observations not used: residual pool full
   std::uint64_t drops_imu = 0;          // IMU samples not integrated: interval buffer full
   std::uint64_t imu_out_of_order = 0;
+  std::uint64_t imu_gap_frames = 0;       // frames whose IMU interval spans a hole (imu_max_gap_ms)
   std::uint64_t imu_held = 0;             // saturated samples replaced by the previous one
   std::uint64_t frames_out_of_order = 0;  // frames not after the previous one: not processed
   std::uint64_t keyframes_emitted = 0;    // keyframes handed to the KeyframeSink

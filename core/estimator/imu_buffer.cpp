@@ -2,14 +2,17 @@
 
 namespace ums {
 
-ImuBuffer::ImuBuffer()
-    : recent_(std::make_unique<RingBuffer<ImuSample, kRecent>>()), scratch_(new ImuSample[kRecent]) {}
+ImuBuffer::ImuBuffer(std::int64_t max_gap_ns)
+    : recent_(std::make_unique<RingBuffer<ImuSample, kRecent>>()), scratch_(new ImuSample[kRecent]),
+      max_gap_ns_(max_gap_ns) {}
 
 ImuBuffer::Added ImuBuffer::add(const ImuSample& in, bool saturated) {
   Added a;
   if (have_ && in.t_ns <= last_.t_ns) return a;
   a.accepted = true;
   a.first = !have_;
+  a.after_gap = have_ && in.t_ns - last_.t_ns > max_gap_ns_;
+  if (a.after_gap && open_) gap_ = true;
   // A sample the saturation element had to clip is an impulse, not motion: even clipped it
   // carries up to one bound of false increment (30 m/s^2 for 5 ms is 0.15 m/s, over a hundred
   // sigmas of a 50 ms interval), so the previous sample is held in its place.
@@ -31,7 +34,9 @@ void ImuBuffer::open_interval(Preintegration* pre, std::int64_t t_ns, const Eige
                               const Eigen::Vector3d& bg) {
   interval_ = pre;
   open_ = false;
+  gap_ = false;
   if (!have_) return;
+  gap_ = t_ns - last_.t_ns > max_gap_ns_;  // the frame came inside a hole
   ImuSample boundary = last_;
   if (boundary.t_ns < t_ns) boundary.t_ns = t_ns;
   open_ = pre->reset(boundary, ba, bg) == Status::kOk;
@@ -39,6 +44,7 @@ void ImuBuffer::open_interval(Preintegration* pre, std::int64_t t_ns, const Eige
 
 bool ImuBuffer::close_interval(std::int64_t t_ns) {
   if (!(have_ && open_ && last_.t_ns < t_ns)) return true;
+  if (t_ns - last_.t_ns > max_gap_ns_) gap_ = true;
   ImuSample boundary = last_;
   boundary.t_ns = t_ns;
   return interval_->add(boundary) != Status::kFull;

@@ -27,9 +27,11 @@ class ImuBuffer {
     bool first = false;         // the first sample of the run
     bool held = false;          // saturated: the previous sample was held in its place
     bool interval_full = false; // the open interval had no room
+    bool after_gap = false;     // more than max_gap after the previous sample (samples were lost)
   };
 
-  ImuBuffer();
+  // max_gap_ns: a longer time between samples is a hole (lost samples), not a slow sensor.
+  explicit ImuBuffer(std::int64_t max_gap_ns = INT64_MAX);
   // One sample (after the saturation element; saturated: clipped, hold the previous one).
   Added add(const ImuSample& in, bool saturated);
   bool has_samples() const { return have_; }
@@ -38,6 +40,9 @@ class ImuBuffer {
   // The open interval: started at a frame with linearization biases, fed by add().
   void open_interval(Preintegration* pre, std::int64_t t_ns, const Eigen::Vector3d& ba, const Eigen::Vector3d& bg);
   bool interval_open() const { return open_; }
+  // The open interval spans a hole (between its samples, or from its last one to the stamp that
+  // closes it): holding a sample across it would integrate motion the IMU never measured.
+  bool interval_has_gap() const { return gap_; }
   // Ends the open interval at the frame time (the last sample held to the stamp: samples arrive
   // in time order, so all before the frame are in; holding <= 1/rate is well below the noise).
   // Returns false when the boundary did not fit.
@@ -51,7 +56,9 @@ class ImuBuffer {
   std::unique_ptr<RingBuffer<ImuSample, kRecent>> recent_;
   std::unique_ptr<ImuSample[]> scratch_;
   ImuSample last_;
+  std::int64_t max_gap_ns_;
   bool have_ = false;
+  bool gap_ = false;
   Preintegration* interval_ = nullptr;
   bool open_ = false;
 };

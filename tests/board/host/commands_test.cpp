@@ -107,6 +107,23 @@ TEST_CASE("umsvins: usage errors exit 64 and name the mistake", "[cli]") {
   r = run({"replay", test::euroc_micro_dir(), "--duration", "ten"});
   CHECK(r.code == kExitUsage);
   CHECK(r.err.find("--duration needs a number, got 'ten'") != std::string::npos);
+
+  r = run({"replay", test::euroc_micro_dir(), "--fault", "imu-gap:1:0.2,imu-hole:2:1"});
+  CHECK(r.code == kExitUsage);
+  CHECK(r.err.find("unknown kind 'imu-hole'") != std::string::npos);
+}
+
+TEST_CASE("umsvins replay --fault: the faults reach the pipeline and are counted in stats.json", "[cli][real]") {
+  const std::string dir = test::make_temp_dir("cli_fault");
+  const Run r = run({"replay", test::euroc_micro_dir(), "--out", dir, "--duration", "3.0", "--quiet", "--deterministic",
+                     "--fault", "imu-gap:1:0.3,frame-gap:2:0.5"});
+  INFO(r.err);
+  REQUIRE(r.code == kExitOk);
+  const std::string stats = read_all(dir + "/stats.json");
+  CHECK(stats.find("\"imu_lost\": 60") != std::string::npos);      // 0.3 s at 200 Hz
+  CHECK(stats.find("\"frames_lost\": 10") != std::string::npos);   // 0.5 s at 20 Hz
+  CHECK(stats.find("\"frames\": 51") != std::string::npos);        // 61 pairs in 3 s, 10 lost
+  CHECK(stats.find("\"imu_gap_frames\": 0") == std::string::npos);  // the estimator saw the hole
 }
 
 TEST_CASE("umsvins budget measures every component it lists", "[cli]") {
