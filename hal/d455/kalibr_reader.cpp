@@ -8,6 +8,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "hal/replay/yaml_file.hpp"
+
 namespace ums::d455 {
 
 namespace {
@@ -45,6 +47,7 @@ cv::FileStorage open_yaml(const std::string& path) {
     body += line;
     body += '\n';
   }
+  if (!hal::yaml_root_is_map(body)) throw std::runtime_error(path + ": expected a YAML map of keys");
   if (body.compare(0, 5, "%YAML") != 0) body = "%YAML:1.0\n---\n" + body;
   try {
     cv::FileStorage fs(body, cv::FileStorage::READ | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);
