@@ -48,6 +48,9 @@ cv::FileStorage open_yaml(const std::string& path) {
     body += '\n';
   }
   if (!hal::yaml_root_is_map(body)) throw std::runtime_error(path + ": expected a YAML map of keys");
+  if (const std::size_t at = hal::yaml_first_control_byte(body); at != std::string::npos) {
+    throw std::runtime_error(path + ": byte " + std::to_string(at) + " is a control character, not YAML text");
+  }
   if (body.compare(0, 5, "%YAML") != 0) body = "%YAML:1.0\n---\n" + body;
   try {
     cv::FileStorage fs(body, cv::FileStorage::READ | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);

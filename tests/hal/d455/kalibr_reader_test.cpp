@@ -89,3 +89,11 @@ TEST_CASE("Kalibr reader refuses a camchain whose root is not a map, without han
   std::ofstream(dir + "/chain.yaml") << "  [0]\n  - [-1]\n  c: p\n";
   CHECK_THROWS_WITH(read_kalibr(dir + "/chain.yaml", ""), dir + "/chain.yaml: expected a YAML map of keys");
 }
+
+// Found by tests/fuzz/kalibr_fuzz (a timeout inside cv::FileStorage on a form feed).
+TEST_CASE("Kalibr reader refuses control characters, without hanging", "[d455][kalibr][fuzz]") {
+  const std::string dir = ums::test::make_temp_dir("d455_kalibr_control");
+  std::ofstream(dir + "/chain.yaml") << " T:a\nb: -\n\f";
+  CHECK_THROWS_WITH(read_kalibr(dir + "/chain.yaml", ""),
+                    dir + "/chain.yaml: byte 10 is a control character, not YAML text");
+}
