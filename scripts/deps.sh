@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs the Debian packages the build, the tests and the aarch64 cross build need.
-# Idempotent and quiet when everything is there. Usage: scripts/deps.sh [host|aarch64|armhf|all]
+# Idempotent and quiet when everything is there. Usage: scripts/deps.sh [host|aarch64|armhf|fuzz|all]
+# (fuzz: the host packages plus clang and its libFuzzer/sanitizer runtimes, for scripts/fuzz.sh)
 set -euo pipefail
 
 want="${1:-all}"
@@ -11,6 +12,8 @@ bench_pkgs=(libceres-dev)
 arm64_pkgs=(g++-aarch64-linux-gnu qemu-user libopencv-core-dev:arm64 libopencv-imgproc-dev:arm64
             libpng-dev:arm64 zlib1g-dev:arm64)
 armhf_pkgs=(g++-arm-linux-gnueabihf qemu-user)
+# -fsanitize=fuzzer,address,undefined: Debian's clang and the runtime libraries matching its version.
+fuzz_pkgs=(clang libclang-rt-14-dev)
 # The whole product on armhf needs OpenCV and libpng for :armhf. Best effort: on 2026-11-22 a
 # mirror mid-sync made them uninstallable; then scripts/test.sh builds and tests the solver only.
 armhf_lib_pkgs=(libopencv-core-dev:armhf libopencv-imgproc-dev:armhf libpng-dev:armhf zlib1g-dev:armhf)
@@ -21,6 +24,9 @@ if [[ "$want" == "aarch64" || "$want" == "all" ]]; then
 fi
 if [[ "$want" == "armhf" || "$want" == "all" ]]; then
   pkgs+=("${armhf_pkgs[@]}")
+fi
+if [[ "$want" == "fuzz" || "$want" == "all" ]]; then
+  pkgs+=("${fuzz_pkgs[@]}")
 fi
 
 missing_of() {  # package... -> the ones not fully installed

@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Builds and runs every test: on the host, then cross-built for aarch64 under qemu-user (plus the
 # host-vs-aarch64 trajectory check, scripts/determinism.sh), then cross-built for 32-bit armhf
-# under qemu-user (the solver alone when OpenCV for armhf cannot be installed).
+# under qemu-user (the solver alone when OpenCV for armhf cannot be installed). host and all also
+# run the fuzz smoke: every libFuzzer harness over its committed seeds (scripts/fuzz.sh all seeds),
+# so the harnesses keep building and the seeds keep passing.
 # Usage: scripts/test.sh [host|aarch64|armhf|all]   (default all)
 set -euo pipefail
 
@@ -28,6 +30,8 @@ run_suite() {  # name build_dir [cmake args...]
 mkdir -p "$root/build"
 if [[ "$want" == "host" || "$want" == "all" ]]; then
   run_suite host "$root/build/host" || status=1
+  echo "== fuzz smoke: each harness over its seeds (scripts/fuzz.sh all ${UMS_FUZZ_SMOKE_S:-seeds})"
+  "$root/scripts/fuzz.sh" all "${UMS_FUZZ_SMOKE_S:-seeds}" || status=1
 fi
 if [[ "$want" == "aarch64" || "$want" == "all" ]]; then
   run_suite aarch64 "$root/build/aarch64" \

@@ -100,10 +100,10 @@ Status parse_stereo_coefficients(const std::uint8_t* table, std::size_t size, in
     return Status::kUnsupported;
   }
   const std::uint8_t* p = table + 256 + 16 * index;
-  out->fx = load<float>(p);
-  out->fy = load<float>(p + 4);
-  out->cx = load<float>(p + 8);
-  out->cy = load<float>(p + 12);
+  out->fx = static_cast<double>(load<float>(p));
+  out->fy = static_cast<double>(load<float>(p + 4));
+  out->cx = static_cast<double>(load<float>(p + 8));
+  out->cy = static_cast<double>(load<float>(p + 12));
   out->baseline_m = std::fabs(static_cast<double>(load<float>(table + 160))) * 1e-3;
   const bool sane = out->fx > 0.3 * width && out->fx < 3.0 * width && out->fy > 0.3 * width &&
                     out->fy < 3.0 * width && out->cx > 0 && out->cx < width && out->cy > 0 &&

@@ -8,6 +8,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "hal/replay/yaml_file.hpp"
+
 namespace ums::d455 {
 
 namespace {
@@ -44,6 +46,10 @@ cv::FileStorage open_yaml(const std::string& path) {
     key_indent = (!item && last != std::string::npos && line[last] == ':') ? ind : std::string::npos;
     body += line;
     body += '\n';
+  }
+  if (!hal::yaml_root_is_map(body)) throw std::runtime_error(path + ": expected a YAML map of keys");
+  if (const std::size_t at = hal::yaml_first_control_byte(body); at != std::string::npos) {
+    throw std::runtime_error(path + ": byte " + std::to_string(at) + " is a control character, not YAML text");
   }
   if (body.compare(0, 5, "%YAML") != 0) body = "%YAML:1.0\n---\n" + body;
   try {

@@ -1,5 +1,6 @@
 #include "hal/replay/yaml_file.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -46,12 +47,41 @@ double to_number(const cv::FileNode& n) { return n.isInt() ? static_cast<double>
 
 }  // namespace
 
+bool yaml_root_is_map(const std::string& text) {
+  std::size_t at = 0;
+  while (at < text.size()) {
+    const std::size_t end = std::min(text.find('\n', at), text.size());
+    const std::size_t first = text.find_first_not_of(" \t\r", at);
+    const bool skip = first >= end || text[first] == '#' || text[first] == '%' ||
+                      text.compare(first, 3, "---") == 0;
+    if (!skip) {
+      // A key: a plain or quoted scalar followed by ':' on this line; not a sequence or flow value.
+      const char c = text[first];
+      return c != '[' && c != '{' && c != '-' && text.find(':', first) < end;
+    }
+    at = end + 1;
+  }
+  return true;  // no content: OpenCV reads an empty document safely
+}
+
+std::size_t yaml_first_control_byte(const std::string& text) {
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const auto c = static_cast<unsigned char>(text[i]);
+    if ((c < 0x20 && c != '\t' && c != '\n' && c != '\r') || c == 0x7F) return i;
+  }
+  return std::string::npos;
+}
+
 YamlFile::YamlFile(const std::string& path) : path_(path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw std::runtime_error(path + ": cannot open");
   std::ostringstream content;
   content << in.rdbuf();
   std::string text = content.str();
+  if (!yaml_root_is_map(text)) throw std::runtime_error(path + ": expected a YAML map of keys");
+  if (const std::size_t at = yaml_first_control_byte(text); at != std::string::npos) {
+    throw std::runtime_error(path + ": byte " + std::to_string(at) + " is a control character, not YAML text");
+  }
   const bool add_directive = text.compare(0, 5, "%YAML") != 0;
   if (add_directive) text = "%YAML:1.0\n" + text;
   try {

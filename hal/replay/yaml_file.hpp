@@ -16,6 +16,17 @@
 
 namespace ums::hal {
 
+// False when the document's first content (after the %YAML directive, "---", blank and comment
+// lines) is not a "key:" line, i.e. its root cannot be the map of keys every reader here needs.
+// Checked before cv::FileStorage sees the text: OpenCV 4.6's parser never returns on some such
+// documents ("---\n[0]\n- [-1]\nc: p", found by tests/fuzz/kalibr_fuzz).
+bool yaml_root_is_map(const std::string& text);
+
+// The offset of the first control byte YAML does not allow in a document (C0 other than tab, LF,
+// CR; and DEL), or std::string::npos. Also checked before cv::FileStorage parses: OpenCV 4.6
+// never returns on " T:a\nb: -\n\f" (found by tests/fuzz/kalibr_fuzz).
+std::size_t yaml_first_control_byte(const std::string& text);
+
 class YamlFile {
  public:
   // Throws std::runtime_error "<path>: cannot open (...)" or "<path>:<line>: YAML syntax error: ...".

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
@@ -52,12 +53,21 @@ std::int64_t to_ns(const std::string& path, int line, const std::string& cell) {
   return static_cast<std::int64_t>(v);
 }
 
+// Whole seconds as nanoseconds; a time whose nanoseconds do not fit int64 (beyond ~292 years,
+// no trajectory stamp) is refused rather than overflowing (found by tests/fuzz/trajectory_fuzz).
+std::int64_t whole_seconds_to_ns(const std::string& path, int line, const std::string& cell, std::int64_t whole) {
+  constexpr std::int64_t kMaxWholeS = std::numeric_limits<std::int64_t>::max() / 1000000000LL - 1;
+  if (whole > kMaxWholeS || whole < -kMaxWholeS) fail(path, line, "time out of range: '" + trim(cell) + "' s");
+  return whole * 1000000000LL;
+}
+
 // Seconds with up to nanosecond decimals, parsed without going through a double.
 std::int64_t seconds_to_ns(const std::string& path, int line, const std::string& cell) {
   const std::string t = trim(cell);
   const auto dot = t.find('.');
-  if (dot == std::string::npos) return to_ns(path, line, t) * 1000000000LL;
-  const std::int64_t whole = dot == 0 ? 0 : to_ns(path, line, t.substr(0, dot));
+  if (dot == std::string::npos) return whole_seconds_to_ns(path, line, t, to_ns(path, line, t));
+  const std::int64_t whole_ns =
+      whole_seconds_to_ns(path, line, t, dot == 0 ? 0 : to_ns(path, line, t.substr(0, dot)));
   std::string frac = t.substr(dot + 1);
   frac.erase(std::remove_if(frac.begin(), frac.end(), [](char c) { return c < '0' || c > '9'; }),
              frac.end());
@@ -65,7 +75,7 @@ std::int64_t seconds_to_ns(const std::string& path, int line, const std::string&
   while (frac.size() < 9) frac.push_back('0');
   const std::int64_t f = std::strtoll(frac.c_str(), nullptr, 10);
   const bool negative = !t.empty() && t[0] == '-';
-  return negative ? whole * 1000000000LL - f : whole * 1000000000LL + f;
+  return negative ? whole_ns - f : whole_ns + f;
 }
 
 struct Rows {

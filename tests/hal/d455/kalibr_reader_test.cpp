@@ -81,3 +81,19 @@ TEST_CASE("Kalibr reader names the file and key of a bad value", "[d455][kalibr]
   CHECK_THROWS_WITH(read_kalibr(dir + "/chain.yaml", ""), Catch::Contains("chain.yaml: key 'cam0.camera_model'"));
   CHECK_THROWS_WITH(read_kalibr(dir + "/missing.yaml", ""), Catch::Contains("missing.yaml: cannot open"));
 }
+
+// Found by tests/fuzz/kalibr_fuzz (a timeout): the reader adds "%YAML:1.0\n---\n" to Kalibr's
+// text, and OpenCV 4.6 then loops forever on a root flow sequence followed by block items.
+TEST_CASE("Kalibr reader refuses a camchain whose root is not a map, without hanging", "[d455][kalibr][fuzz]") {
+  const std::string dir = ums::test::make_temp_dir("d455_kalibr_root");
+  std::ofstream(dir + "/chain.yaml") << "  [0]\n  - [-1]\n  c: p\n";
+  CHECK_THROWS_WITH(read_kalibr(dir + "/chain.yaml", ""), dir + "/chain.yaml: expected a YAML map of keys");
+}
+
+// Found by tests/fuzz/kalibr_fuzz (a timeout inside cv::FileStorage on a form feed).
+TEST_CASE("Kalibr reader refuses control characters, without hanging", "[d455][kalibr][fuzz]") {
+  const std::string dir = ums::test::make_temp_dir("d455_kalibr_control");
+  std::ofstream(dir + "/chain.yaml") << " T:a\nb: -\n\f";
+  CHECK_THROWS_WITH(read_kalibr(dir + "/chain.yaml", ""),
+                    dir + "/chain.yaml: byte 10 is a control character, not YAML text");
+}

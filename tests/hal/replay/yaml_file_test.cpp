@@ -57,3 +57,25 @@ TEST_CASE("YamlFile syntax errors give the file's own line, with or without %YAM
   CHECK_THROWS_WITH(YamlFile(dir + "/without.yaml"), Catch::Contains("without.yaml:2: YAML syntax error"));
   CHECK_THROWS_WITH(YamlFile(dir + "/absent.yaml"), Catch::Contains("absent.yaml: cannot open"));
 }
+
+// Found by tests/fuzz/kalibr_fuzz: OpenCV 4.6's parser never returns on this document (a root flow
+// sequence followed by block items); the root is checked to be a map of keys before it parses.
+TEST_CASE("YamlFile refuses a document whose root is not a map, without hanging OpenCV", "[yaml][fuzz]") {
+  const std::string path = ums::test::make_temp_dir("yaml_file_root") + "/hang.yaml";
+  std::ofstream(path) << "%YAML:1.0\n---\n[0]\n- [-1]\nc: p\n";
+  CHECK_THROWS_WITH(YamlFile(path), path + ": expected a YAML map of keys");
+  CHECK_FALSE(ums::hal::yaml_root_is_map("# c\n\n  - 1\n"));
+  CHECK_FALSE(ums::hal::yaml_root_is_map("{a: 1}\n"));
+  CHECK(ums::hal::yaml_root_is_map("%YAML:1.0\n---\n# c\n\"a b\": 1\n"));
+  CHECK(ums::hal::yaml_root_is_map(""));
+}
+
+// Found by tests/fuzz/kalibr_fuzz (a timeout): OpenCV 4.6's parser never returns on this text with
+// a form feed; control bytes are not YAML text and are refused first.
+TEST_CASE("YamlFile refuses control characters, without hanging OpenCV", "[yaml][fuzz]") {
+  const std::string path = ums::test::make_temp_dir("yaml_file_control") + "/hang.yaml";
+  std::ofstream(path) << " T:a\nb: -\n\f";
+  CHECK_THROWS_WITH(YamlFile(path), path + ": byte 10 is a control character, not YAML text");
+  CHECK(ums::hal::yaml_first_control_byte("a: 1\t# c\r\n") == std::string::npos);
+  CHECK(ums::hal::yaml_first_control_byte(std::string("a: \0", 4)) == 3);
+}

@@ -89,3 +89,13 @@ TEST_CASE("to_frame moves body <-> cam0 only when the frames differ", "[eval][tr
   CHECK((back.poses[0].p_w_x - p.p_w_x).norm() < 1e-12);
   CHECK(back.poses[0].q_w_x.angularDistance(p.q_w_x) < 1e-12);
 }
+
+// Found by tests/fuzz/trajectory_fuzz: a stamp of 1e20 s overflowed int64 nanoseconds (UB).
+TEST_CASE("a TUM stamp beyond int64 nanoseconds is refused naming file and line", "[eval][trajectory][fuzz]") {
+  const std::string dir = ums::test::make_temp_dir("eval_tum_huge_stamp");
+  for (const std::string stamp : {"222222222222222222221.1", "9223372036854775807", "-99999999999.5"}) {
+    const std::string path = dir + "/huge.txt";
+    std::ofstream(path) << "1.0 0 0 0 0 0 0 1\n" << stamp << " 0.1 0 0 0 0 0 1\n";
+    CHECK_THROWS_WITH(read_tum(path), Catch::Contains("huge.txt:2: time out of range"));
+  }
+}
