@@ -255,9 +255,12 @@ def case_pty_57600(args):
     rc = run_with_pty(replay_cmd(args, micro, out, ["--realtime", "--mavlink-vision"]), cap, 57600)
     check(rc == 0, "replay exit %d" % rc)
     msgs, summary = decode(args, cap)
-    # ODOMETRY + VPE + VSE at 20 Hz is 20 * (245 + 129 + 69) = 8.9 kB/s; 57600 baud carries 5.8.
-    compare_with_log(msgs, summary, out, expect_drops=True)
+    # ODOMETRY + VPE + VSE at 20 Hz is 20 * (245 + 129 + 69) = 8.9 kB/s; 57600 baud carries 5.8:
+    # the link must drop packets. Which ones (ODOMETRY or the vision messages) depends on where
+    # the budget stands when each comes, i.e. on scheduling: only the count is asserted.
+    compare_with_log(msgs, summary, out, expect_drops=None)
     link = stats_of(out)["mavlink"]
+    check(link["link_packets_dropped"] > 0, "link drops: %d packets (expected some)" % link["link_packets_dropped"])
     check(link["link_bytes_sent"] == summary["bytes"],
           "bytes through the pty %d = bytes the link sent %d (only whole frames)" % (summary["bytes"], link["link_bytes_sent"]))
 
