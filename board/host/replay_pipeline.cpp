@@ -211,7 +211,10 @@ void ReplayPipeline::write_stats(JsonWriter& w) const {
       .value("stereo_epipolar_rms_px", s.stereo_epipolar_rms_px, 4)
       .value("keyframes", s.keyframes)
       .end_object();
-  w.begin_object("imu").value("saturated_samples", s.saturated_samples).end_object();
+  w.begin_object("imu")
+      .value("saturated_samples", s.saturated_samples)
+      .value("implausible_samples", vio_.counters().imu_implausible)
+      .end_object();
   if (has_estimator()) write_estimator_stats(w);
   write_memory_stats(w);
   write_drops(w, s);
@@ -428,6 +431,10 @@ void ReplayPipeline::print_summary(std::ostream& out) const {
       << " keyframes\n";
   if (s.saturated_samples > 0) {
     out << "replay: saturation element clipped " << s.saturated_samples << " IMU samples\n";
+  }
+  if (vio_.counters().imu_implausible > 0) {
+    out << "replay: dropped " << vio_.counters().imu_implausible
+        << " IMU samples that are no reading (not finite, or beyond the sensor range)\n";
   }
   out << "replay: steady-state heap allocations in the pipeline: "
       << s.heap_allocs_steady_state << "\n";

@@ -23,24 +23,39 @@ int limit(const Eigen::Vector3d& last, double bound, Eigen::Vector3d* v) {
   return clipped;
 }
 
+// Every axis finite and within +-bound (a NaN fails the comparison).
+bool within(const Eigen::Vector3d& v, double bound) {
+  for (int k = 0; k < 3; ++k) {
+    if (!(std::abs(v(k)) <= bound)) return false;
+  }
+  return true;
+}
+
+void require_bound(double value, const char* name) {
+  if (!(value > 0.0) || !std::isfinite(value)) {
+    throw std::invalid_argument(std::string("SaturationOptions.") + name + " must be finite and > 0, got " +
+                                std::to_string(value));
+  }
+}
+
 }  // namespace
 
 void SaturationOptions::validate() const {
-  if (!(max_gyro_step_rad_s > 0.0) || !std::isfinite(max_gyro_step_rad_s)) {
-    throw std::invalid_argument(
-        "SaturationOptions.max_gyro_step_rad_s must be finite and > 0, got " +
-        std::to_string(max_gyro_step_rad_s));
-  }
-  if (!(max_accel_step_m_s2 > 0.0) || !std::isfinite(max_accel_step_m_s2)) {
-    throw std::invalid_argument(
-        "SaturationOptions.max_accel_step_m_s2 must be finite and > 0, got " +
-        std::to_string(max_accel_step_m_s2));
-  }
+  require_bound(max_gyro_step_rad_s, "max_gyro_step_rad_s");
+  require_bound(max_accel_step_m_s2, "max_accel_step_m_s2");
+  require_bound(max_abs_gyro_rad_s, "max_abs_gyro_rad_s");
+  require_bound(max_abs_accel_m_s2, "max_abs_accel_m_s2");
 }
 
 SaturationElement::SaturationElement(const SaturationOptions& options) : options_(options) {}
 
 void SaturationElement::reset() { has_last_ = false; }
+
+bool SaturationElement::plausible(const ImuSample& raw) {
+  const bool ok = within(raw.gyro_rad_s, options_.max_abs_gyro_rad_s) && within(raw.accel_m_s2, options_.max_abs_accel_m_s2);
+  if (!ok) ++implausible_samples_;
+  return ok;
+}
 
 bool SaturationElement::apply(const ImuSample& raw, ImuSample* out) {
   ImuSample s = raw;

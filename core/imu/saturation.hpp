@@ -9,6 +9,11 @@
 // are about 3x the largest change measured on the whole EuRoC V1_01 flight at 200 Hz (gyro 0.303
 // rad/s, accel 10.2 m/s^2 per sample; docs/math-imu.md), so they never touch normal EuRoC motion
 // and still cut a 50 m/s^2 impulse.
+//
+// Ahead of the limiter, a reading that no sensor could have made (not finite, or beyond the
+// widest range MEMS IMUs offer: 4000 deg/s, 32 g) is not a measurement at all: limiting it would
+// still ramp a sustained glitch in, and a NaN would pass every comparison. plausible() tells the
+// caller to drop it; the preintegration then bridges the one-sample hole like any other.
 
 #include <cstdint>
 
@@ -20,6 +25,8 @@ struct SaturationOptions {
   bool enabled = true;
   double max_gyro_step_rad_s = 1.0;   // rad/s, per axis, between consecutive samples
   double max_accel_step_m_s2 = 30.0;  // m/s^2, per axis, between consecutive samples
+  double max_abs_gyro_rad_s = 70.0;   // rad/s, per axis: beyond 4000 deg/s is no gyro reading
+  double max_abs_accel_m_s2 = 320.0;  // m/s^2, per axis: beyond 32 g is no accelerometer reading
 
   void validate() const;  // throws std::invalid_argument naming the field and value
 };
@@ -28,6 +35,9 @@ class SaturationElement {
  public:
   explicit SaturationElement(const SaturationOptions& options = SaturationOptions());
 
+  // False for a sample that is no reading (an axis not finite or beyond the sensor range);
+  // counted in implausible_samples(). Such a sample must not reach apply().
+  bool plausible(const ImuSample& raw);
   // Forget the previous sample (the next one passes unchanged). Counters are kept.
   void reset();
   // Writes the limited sample into *out (may alias &raw); returns true if any axis was clipped.
@@ -38,6 +48,7 @@ class SaturationElement {
   }  // stats.json imu.saturated_samples
   std::uint64_t saturated_axes() const { return saturated_axes_; }  // clipped axis values
   std::uint64_t processed_samples() const { return processed_samples_; }
+  std::uint64_t implausible_samples() const { return implausible_samples_; }  // imu.implausible_samples
 
  private:
   SaturationOptions options_;
@@ -46,6 +57,7 @@ class SaturationElement {
   std::uint64_t saturated_samples_ = 0;
   std::uint64_t saturated_axes_ = 0;
   std::uint64_t processed_samples_ = 0;
+  std::uint64_t implausible_samples_ = 0;
 };
 
 }  // namespace ums

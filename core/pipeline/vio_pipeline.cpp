@@ -34,6 +34,10 @@ void VioPipeline::on_imu(const ImuSample& sample) { aligner_.on_imu(sample, &ali
 void VioPipeline::on_stereo(const StereoFrame& frame) { aligner_.on_stereo(frame, &aligned_); }
 
 void VioPipeline::process_imu(const ImuSample& sample) {
+  if (!saturation_.plausible(sample)) {
+    ++counters_.imu_implausible;  // NaN, Inf or beyond any sensor's range: no reading, dropped
+    return;
+  }
   if (sample.t_ns <= last_imu_t_ns_) {
     ++counters_.imu_out_of_order;  // a source bug: count, never pass on
     return;

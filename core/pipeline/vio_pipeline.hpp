@@ -2,7 +2,7 @@
 // The processing pipeline of one stereo-inertial stream: what every source (replay, simulator,
 // D455) pushes into and what every program (replay, live, sweep) runs.
 //
-//   on_imu:    time order check -> saturation element -> gyro rotation hint -> Estimator::add_imu
+//   on_imu:    plausibility (finite, in range) -> time order check -> saturation element -> gyro rotation hint -> Estimator::add_imu
 //              -> PoseSink::on_imu_pose (once a pose exists)
 //   (both through TimeAligner first: + rig td_s, the only place the camera-IMU offset is applied,
 //   and IMU-time order restored when td_s is not 0; with estimate_td each processed frame moves
@@ -67,6 +67,7 @@ struct VioPipelineCounters {
   std::uint64_t imu_samples = 0;               // IMU samples passed on
   std::uint64_t imu_out_of_order = 0;          // not after the previous sample: dropped (a source bug)
   std::uint64_t saturated_samples = 0;         // clipped by the saturation element
+  std::uint64_t imu_implausible = 0;           // not finite or beyond the sensor range: dropped
   std::uint64_t frontend_rejected_frames = 0;  // refused by the front end (size mismatch, no left)
   std::uint64_t keyframes = 0;                 // estimates that said keyframe
 };

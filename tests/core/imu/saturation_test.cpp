@@ -2,6 +2,7 @@
 
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include "synthetic_imu.hpp"
@@ -77,4 +78,32 @@ TEST_CASE("saturation can be disabled and validates its bounds", "[imu][saturati
   opt.max_accel_step_m_s2 = 30.0;
   opt.max_gyro_step_rad_s = std::nan("");
   CHECK_THROWS_AS(opt.validate(), std::invalid_argument);
+}
+
+// A reading no IMU can make is refused outright (the limiter would ramp a sustained 1e9 in, and
+// lets a NaN through every comparison); the range is the widest MEMS IMUs offer.
+TEST_CASE("saturation: NaN, Inf and beyond-range samples are no reading, in-range ones are", "[imu][saturation]") {
+  ums::SaturationElement sat;
+  ums::ImuSample s;
+  s.accel_m_s2 = Eigen::Vector3d(0.3, -0.2, 9.81);
+  s.gyro_rad_s = Eigen::Vector3d(0.1, 0.0, -0.2);
+  CHECK(sat.plausible(s));
+  ums::ImuSample fast = s;
+  fast.gyro_rad_s.z() = 34.9;   // 2000 deg/s, the D455's BMI055 full scale
+  fast.accel_m_s2.x() = -156.9;  // 16 g
+  CHECK(sat.plausible(fast));
+  int refused = 0;
+  for (double bad : {std::nan(""), std::numeric_limits<double>::infinity(), 1e9, 71.0}) {
+    ums::ImuSample g = s;
+    g.gyro_rad_s.y() = bad;
+    CHECK_FALSE(sat.plausible(g));
+    ums::ImuSample a = s;
+    a.accel_m_s2.z() = bad == 71.0 ? 321.0 : -bad;
+    CHECK_FALSE(sat.plausible(a));
+    refused += 2;
+  }
+  CHECK(sat.implausible_samples() == static_cast<std::uint64_t>(refused));
+  ums::SaturationOptions opt;
+  opt.max_abs_accel_m_s2 = 0.0;
+  CHECK_THROWS_WITH(opt.validate(), Catch::Contains("max_abs_accel_m_s2"));
 }

@@ -4,7 +4,10 @@
 
 #include "core/pipeline/vio_pipeline.hpp"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <vector>
 
@@ -107,9 +110,22 @@ void push(ums::hal::EurocReader::Event ev, const ums::ImuSample& imu, const ums:
   pipeline->on_stereo(frame);
 }
 
+// IMU samples [first, first + count) of the recording replaced by `value` on every axis.
+struct ImuCorruption {
+  std::size_t first = SIZE_MAX;
+  std::size_t count = 0;
+  double value = 0.0;
+};
+
+void corrupt(const ImuCorruption& c, std::size_t index, ums::ImuSample* imu) {
+  if (index < c.first || index - c.first >= c.count) return;
+  imu->gyro_rad_s.setConstant(c.value);
+  imu->accel_m_s2.setConstant(c.value);
+}
+
 // The micro sequence through a VioPipeline (rig td_s set to td_s); allocations counted from the
 // 50th frame on.
-Run run_micro(double td_s, bool frontend_only = false) {
+Run run_micro(double td_s, bool frontend_only = false, const ImuCorruption& corruption = ImuCorruption()) {
   ums::hal::EurocReader reader;
   reader.open(ums::test::euroc_micro_dir(), ums::hal::EurocReaderOptions());
   ums::RigCalibration rig = reader.calibration();
@@ -130,6 +146,7 @@ Run run_micro(double td_s, bool frontend_only = false) {
   for (;;) {
     const auto ev = reader.next(&imu, &frame);
     if (ev == ums::hal::EurocReader::Event::kEnd) break;
+    if (ev == ums::hal::EurocReader::Event::kImu) corrupt(corruption, run.imu_t_ns.size(), &imu);
     const bool steady = pipeline->counters().frames >= 50;
     ums::AllocScope scope;
     push(ev, imu, frame, pipeline.get(), &run);
@@ -180,6 +197,32 @@ TEST_CASE("pipeline on the EuRoC micro sequence: a pose per frame with one, keyf
   CHECK(kf == run.out.keyframes.size());
   CHECK(kf >= 10);  // the frames that filled the window at least
   CHECK(run.steady_allocations == 0);
+}
+
+// Samples that are no reading (NaN, and 1e9 on every axis: a glitching driver) never reach the
+// estimator: they are dropped and counted, not ramped in by the slew limiter. The vehicle rests
+// in the micro sequence, so 0.1 s of dropped samples must leave the poses where the clean run
+// has them.
+TEST_CASE("pipeline: NaN and huge IMU samples are dropped and counted, the poses stay put", "[pipeline]") {
+  const Run clean = run_micro(0.0);
+  for (const double value : {std::nan(""), 1e9, -std::numeric_limits<double>::infinity()}) {
+    CAPTURE(value);
+    const Run bad = run_micro(0.0, false, ImuCorruption{400, 20, value});  // 2.0-2.1 s, mid-run
+    CHECK(bad.counters.imu_implausible == 20);
+    CHECK(bad.counters.imu_samples == clean.counters.imu_samples - 20);
+    CHECK(bad.counters.saturated_samples == clean.counters.saturated_samples);
+    REQUIRE(bad.records.size() == clean.records.size());
+    double worst_m = 0.0;
+    for (std::size_t i = 0; i < bad.records.size(); ++i) {
+      const ums::EstimatorOutput& a = bad.records[i].estimate;
+      const ums::EstimatorOutput& b = clean.records[i].estimate;
+      if (!a.valid || !b.valid) continue;
+      REQUIRE(a.p_w_b.allFinite());
+      worst_m = std::max(worst_m, (a.p_w_b - b.p_w_b).norm());
+    }
+    CHECK(worst_m < 0.005);  // m
+    CHECK(bad.steady_allocations == 0);
+  }
 }
 
 // The estimator names its frames (EstimatorOutput::frame_id): the keyframe outlet passes the name
