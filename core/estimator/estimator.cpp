@@ -188,7 +188,7 @@ StandstillResult Estimator::begin_frame(const FrameFeatures& ff, WindowFrame& f)
   f.td_applied_s = 1e-9 * static_cast<double>(ff.td_ns);
   f.keyframe = false;
   if (!imu_->close_interval(f.t_ns)) ++stats_.drops_imu;
-  if (imu_->interval_has_gap()) ++stats_.imu_gap_frames;
+  if (imu_->interval_has_gap()) widen_imu_factor_over_hole(f);
   f.imu_ok = imu_->interval_open() && f.pre.num_samples() >= 2 && f.imu.residual().init(&f.pre, g_w_) == Status::kOk;
   StandstillResult rest;
   f.still = initializer_->imu_at_rest(f.t_ns, imu_.get(), &rest);
@@ -196,6 +196,25 @@ StandstillResult Estimator::begin_frame(const FrameFeatures& ff, WindowFrame& f)
   last_still_valid_ = f.still;
   last_output_.t_ns = ff.t_ns;
   return rest;
+}
+
+// Samples were lost inside this frame's interval: the factor holds the last sample across the
+// hole, which claims the IMU's precision for motion it never measured. Its covariance gets the
+// variance of that motion, modelled as a random walk changing at the rate the samples changed in
+// the second before the hole: vision then carries the window through, and a short hole during
+// slow motion keeps most of the IMU's weight.
+void Estimator::widen_imu_factor_over_hole(WindowFrame& f) {
+  ++stats_.imu_gap_frames;
+  double q_gyro = 0.0, q_accel = 0.0;
+  if (!imu_->motion_density_before_hole(&q_gyro, &q_accel)) return;
+  const double hole_s = imu_->interval_hole_s();
+  // A held sample drifts from the motion as a random walk, W(s) with variance q s; its integral
+  // over the hole has variance q L^3 / 3, whose share in this interval is q s^2 ds. The factors
+  // are independent, so each takes its share of the whole (its own marginal, q s ds^2, would
+  // leave the window too sure of the motion across a long hole).
+  const double age_s = imu_->hole_age_s();
+  const double k = age_s * age_s * hole_s;
+  f.pre.add_unmodelled_motion({q_gyro * k, q_accel * k, 0.5 * hole_s});
 }
 
 void Estimator::initial_state(WindowFrame& f, const StandstillResult& rest) {

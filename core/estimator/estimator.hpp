@@ -137,6 +137,7 @@ class Estimator {
   // Steps of add_frame.
   bool out_of_order(const FrameFeatures& ff, EstimatorOutput* out);
   StandstillResult begin_frame(const FrameFeatures& ff, WindowFrame& f);
+  void widen_imu_factor_over_hole(WindowFrame& f);
   void initial_state(WindowFrame& f, const StandstillResult& rest);
   Eigen::Matrix3d c0_from_c1() const;  // right camera to left, from the current extrinsics
   // The cameras' rotation and rates from the gyro between the window frame before f and f (for

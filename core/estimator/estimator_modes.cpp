@@ -291,6 +291,11 @@ void Estimator::merge_into_newest(WindowFrame& second, WindowFrame& newest) {
   ImuSample* scratch = imu_->scratch();
   const std::size_t m = newest.pre.num_samples();
   for (std::size_t k = 0; k < m; ++k) scratch[k] = newest.pre.sample(k);
+  // Unmeasured motion of either part stays unmeasured; the first part's velocity error also
+  // moves the position over the second part.
+  Preintegration::UnmodelledMotion unmodelled = second.pre.unmodelled_motion();
+  unmodelled.lever_s += newest.pre.dt_s();
+  const Preintegration::UnmodelledMotion unmodelled_newest = newest.pre.unmodelled_motion();
   if (second.pre.num_samples() >= 1 && m >= 1) {
     const Eigen::Vector3d ba = second.pre.linearization_ba(), bg = second.pre.linearization_bg();
     newest.pre.reset(second.pre.sample(0), ba, bg);
@@ -298,6 +303,8 @@ void Estimator::merge_into_newest(WindowFrame& second, WindowFrame& newest) {
       if (newest.pre.add(second.pre.sample(k)) == Status::kFull) ++stats_.drops_imu;
     for (std::size_t k = 1; k < m; ++k)
       if (newest.pre.add(scratch[k]) == Status::kFull) ++stats_.drops_imu;
+    if (second.pre.has_unmodelled_motion()) newest.pre.add_unmodelled_motion(unmodelled);
+    newest.pre.add_unmodelled_motion(unmodelled_newest);
     newest.imu_ok = second.imu_ok && newest.imu_ok && newest.imu.residual().init(&newest.pre, g_w_) == Status::kOk;
   } else {
     newest.imu_ok = false;

@@ -43,6 +43,14 @@ class ImuBuffer {
   // The open interval spans a hole (between its samples, or from its last one to the stamp that
   // closes it): holding a sample across it would integrate motion the IMU never measured.
   bool interval_has_gap() const { return gap_; }
+  // How much of the open interval lies in holes (s), and how long the hole had lasted at the end
+  // of that part (s): a sample held across a hole drifts from the motion the longer it is held.
+  double interval_hole_s() const { return 1e-9 * static_cast<double>(hole_ns_); }
+  double hole_age_s() const { return 1e-9 * static_cast<double>(hole_end_ns_ - hole_start_ns_); }
+  // How fast the measured motion changed in the second before the latest hole: the mean of
+  // (sample step)^2 / dt per axis, gyro (rad^2/s^3) and accel (m^2/s^5). A held sample's error
+  // after s seconds has about q * s variance (the signal as a random walk). False: no samples.
+  bool motion_density_before_hole(double* q_gyro, double* q_accel) const;
   // Ends the open interval at the frame time (the last sample held to the stamp: samples arrive
   // in time order, so all before the frame are in; holding <= 1/rate is well below the noise).
   // Returns false when the boundary did not fit.
@@ -53,12 +61,19 @@ class ImuBuffer {
   ImuSample* scratch() { return scratch_.get(); }
 
  private:
+  void note_hole(std::int64_t last_sample_ns, std::int64_t end_ns);
+  Status add_bridged(const ImuSample& next);
+
   std::unique_ptr<RingBuffer<ImuSample, kRecent>> recent_;
   std::unique_ptr<ImuSample[]> scratch_;
   ImuSample last_;
   std::int64_t max_gap_ns_;
   bool have_ = false;
   bool gap_ = false;
+  std::int64_t interval_t0_ns_ = 0;
+  std::int64_t hole_ns_ = 0;        // hole time inside the open interval
+  std::int64_t hole_start_ns_ = 0;  // the last sample before the latest hole
+  std::int64_t hole_end_ns_ = 0;    // where the latest hole's part in the open interval ends
   Preintegration* interval_ = nullptr;
   bool open_ = false;
 };

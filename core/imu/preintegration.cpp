@@ -1,5 +1,6 @@
 #include "core/imu/preintegration.hpp"
 
+#include <algorithm>
 #include <Eigen/Cholesky>
 #include <cmath>
 #include <stdexcept>
@@ -65,7 +66,14 @@ Status Preintegration::reset(const ImuSample& first, const Eigen::Vector3d& ba,
   ba_ = ba;
   bg_ = bg;
   clear_deltas();
+  unmodelled_ = UnmodelledMotion();
   return Status::kOk;
+}
+
+void Preintegration::add_unmodelled_motion(const UnmodelledMotion& u) {
+  unmodelled_.var_theta_rad2 += std::max(0.0, u.var_theta_rad2);
+  unmodelled_.var_v_m2_s2 += std::max(0.0, u.var_v_m2_s2);
+  unmodelled_.lever_s = std::max(unmodelled_.lever_s, u.lever_s);
 }
 
 Status Preintegration::add(const ImuSample& sample) {
@@ -218,7 +226,16 @@ void Preintegration::corrected(const Eigen::Vector3d& ba, const Eigen::Vector3d&
 
 Status Preintegration::sqrt_information(Matrix15* U) const {
   // Symmetrise first: F P F^T accumulates rounding asymmetry.
-  const Matrix15 P = 0.5 * (covariance_ + covariance_.transpose());
+  Matrix15 P = 0.5 * (covariance_ + covariance_.transpose());
+  if (has_unmodelled_motion()) {
+    const double l = unmodelled_.lever_s, var_v = unmodelled_.var_v_m2_s2;
+    const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
+    P.block<3, 3>(kTheta, kTheta) += unmodelled_.var_theta_rad2 * I;
+    P.block<3, 3>(kV, kV) += var_v * I;
+    P.block<3, 3>(kP, kP) += l * l * var_v * I;
+    P.block<3, 3>(kP, kV) += l * var_v * I;
+    P.block<3, 3>(kV, kP) += l * var_v * I;
+  }
   Eigen::LLT<Matrix15> llt_p(P);
   if (llt_p.info() != Eigen::Success) return Status::kSingular;
   Matrix15 info = llt_p.solve(Matrix15::Identity());

@@ -189,3 +189,32 @@ TEST_CASE("interpolate_imu is linear in time", "[imu][preintegration]") {
   CHECK((m.gyro_rad_s - Vector3d(1.5, 2, 2.5)).norm() < 1e-15);
   CHECK(std::abs(m.accel_m_s2.z() - 12.5) < 1e-15);
 }
+
+// Motion the IMU did not measure widens the factor by exactly its variance: a velocity error of
+// 3 sigma of the unmodelled motion (and the position error it makes over the lever arm) whitens
+// to about 3, not to hundreds of the IMU's own sigmas;
+// and a repropagation (new biases) keeps it, a reset drops it.
+TEST_CASE("preintegration: unmodelled motion adds its variance to the deltas, kept until reset", "[imu][preintegration]") {
+  const SyntheticTrajectory traj;
+  Preintegration pre;
+  integrate(traj, 0, 10, Vector3d::Zero(), Vector3d::Zero(), &pre);
+  Preintegration::Matrix15 U0, U1;
+  REQUIRE(pre.sqrt_information(&U0) == Status::kOk);
+  constexpr double kSigmaV = 0.05, kSigmaTheta = 0.01;  // m/s, rad
+  pre.add_unmodelled_motion({kSigmaTheta * kSigmaTheta, kSigmaV * kSigmaV, 0.025});
+  REQUIRE(pre.has_unmodelled_motion());
+  REQUIRE(pre.sqrt_information(&U1) == Status::kOk);
+  Eigen::Matrix<double, 15, 1> r = Eigen::Matrix<double, 15, 1>::Zero();
+  // The velocity error as the model has it: held for the lever arm, it moved the position too.
+  r.segment<3>(Preintegration::kV) = Vector3d(3.0 * kSigmaV, 0.0, 0.0);
+  r.segment<3>(Preintegration::kP) = 0.025 * r.segment<3>(Preintegration::kV);
+  CHECK((U0 * r).norm() > 100.0);
+  CHECK((U1 * r).norm() == Approx(3.0).epsilon(0.02));
+  r.setZero();
+  r.segment<3>(Preintegration::kTheta) = Vector3d(0.0, 0.0, 2.0 * kSigmaTheta);
+  CHECK((U1 * r).norm() == Approx(2.0).epsilon(0.02));
+  pre.repropagate(Vector3d(0.05, 0.0, 0.0), Vector3d::Zero());
+  CHECK(pre.has_unmodelled_motion());
+  REQUIRE(pre.reset(traj.sample(0), Vector3d::Zero(), Vector3d::Zero()) == Status::kOk);
+  CHECK_FALSE(pre.has_unmodelled_motion());
+}
