@@ -20,6 +20,7 @@ std::int8_t quality_of(const EstimatorOutput& out) {
   const int n = out.landmarks_in_solve;
   switch (out.mode) {
     case EstimatorMode::kImuOnly: return 1;
+    case EstimatorMode::kVisionLost: return 10;  // a VIO state carried by the IMU alone: drifting
     case EstimatorMode::kVo: return static_cast<std::int8_t>(25 + std::min(25, n / 4));
     case EstimatorMode::kVio: return static_cast<std::int8_t>(50 + std::min(50, n / 2));
   }

@@ -352,7 +352,8 @@ void print_run(const ReplaySummary& summary, const hal::EurocReaderCounters& cou
     } else {
       out << "never reached VIO";
     }
-    out << "; frames IMU_ONLY/VO/VIO " << e.frames_in_mode[0] << "/" << e.frames_in_mode[1] << "/" << e.frames_in_mode[2] << "\n";
+    out << "; frames IMU_ONLY/VO/VIO/VISION_LOST " << e.frames_in_mode[0] << "/" << e.frames_in_mode[1] << "/"
+        << e.frames_in_mode[2] << "/" << e.frames_in_mode[3] << "\n";
     if (accuracy != nullptr) {
       out << "replay: ATE RMSE " << accuracy->ate.translation_m.rmse << " m (SE(3) alignment, " << accuracy->matched
           << " poses), max " << accuracy->ate.translation_m.max << " m\n";

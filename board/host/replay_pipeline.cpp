@@ -307,6 +307,7 @@ void ReplayPipeline::write_estimator_stats(JsonWriter& w) const {
       .value("frames_imu_only", e.frames_in_mode[0])
       .value("frames_vo", e.frames_in_mode[1])
       .value("frames_vio", e.frames_in_mode[2])
+      .value("frames_vision_lost", e.frames_in_mode[3])
       .value("poses_written", poses_.poses_written())
       .value("frames_without_pose", e.frames_without_pose)
       .value("solves", e.solves)

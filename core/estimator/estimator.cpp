@@ -234,7 +234,7 @@ void Estimator::initial_state(WindowFrame& f, const StandstillResult& rest) {
   }
   const WindowFrame& prev = window_->newest();
   std::copy(prev.sb, prev.sb + state::kSbSize, f.sb);
-  if (mode_ == EstimatorMode::kVio && f.imu_ok) {
+  if (inertial_window() && f.imu_ok) {
     const NavState sj = predict(nav_from_blocks(prev.pose, prev.sb), f.pre, g_w_);
     state::p(f.pose) = sj.p_w_b;
     set_quat(f.pose, sj.q_w_b);
@@ -298,12 +298,33 @@ void Estimator::run_mode(WindowFrame& f, EstimatorTiming* timing) {
   switch (mode_) {
     case EstimatorMode::kImuOnly: apply(frame_imu_only(f)); break;
     case EstimatorMode::kVo: apply(frame_vo(f)); break;
-    case EstimatorMode::kVio: frame_vio(f, timing); break;
+    case EstimatorMode::kVio:
+    case EstimatorMode::kVisionLost:
+      frame_vio(f, timing);
+      apply(watch_tracking(f));
+      break;
   }
 }
 
+// VIO with nothing tracked (the images went dark) is the IMU alone: said so after
+// vision_lost_after_s, and VIO again once tracking has held for vision_back_after_s. The window
+// runs on either way; only what the pose is worth changes.
+ModeEvent Estimator::watch_tracking(const WindowFrame& f) {
+  const int tracked = landmarks_->count_depth_observations(window_->slot_of(f), nullptr);
+  const bool enough = tracked >= options_.min_tracked_landmarks;
+  if (enough != tracking_ok_) {
+    tracking_ok_ = enough;
+    tracking_since_ns_ = f.t_ns;
+  }
+  const double held_s = 1e-9 * static_cast<double>(f.t_ns - tracking_since_ns_);
+  if (mode_ == EstimatorMode::kVio && !enough && held_s >= options_.vision_lost_after_s) return ModeEvent::kTracksLost;
+  if (mode_ == EstimatorMode::kVisionLost && enough && held_s >= options_.vision_back_after_s)
+    return ModeEvent::kTracksBack;
+  return ModeEvent::kNone;
+}
+
 void Estimator::guard_divergence(WindowFrame& f) {
-  if (mode_ != EstimatorMode::kVio) return;
+  if (!inertial_window()) return;
   const Eigen::Vector3d v = state::v(f.sb);
   bool finite = v.allFinite();
   for (double x : f.pose) finite = finite && std::isfinite(x);
@@ -394,7 +415,12 @@ void Estimator::apply(ModeEvent event) {
   c.reason = t.reason;
   if (stats_.mode_changes.push_back(c) != Status::kOk) ++stats_.mode_changes_dropped;
   mode_ = t.to;
-  if (t.to == EstimatorMode::kVio) ++stats_.relevels;
+  if (c.from == EstimatorMode::kVisionLost || t.to == EstimatorMode::kVisionLost) return;  // same window
+  if (t.to == EstimatorMode::kVio) {
+    ++stats_.relevels;
+    tracking_ok_ = true;
+    tracking_since_ns_ = c.t_ns;
+  }
   if (t.to == EstimatorMode::kVio && !stats_.initialized) {
     stats_.initialized = true;
     stats_.init_t_ns = c.t_ns;

@@ -169,6 +169,9 @@ class Estimator {
   // Window upkeep.
   void remove_frame(int pos);
   void reset_window(bool keep_newest);
+  // VIO's window with the IMU in it (VIO, or VISION_LOST: the same window, nothing tracked).
+  bool inertial_window() const { return mode_ == EstimatorMode::kVio || mode_ == EstimatorMode::kVisionLost; }
+  ModeEvent watch_tracking(const WindowFrame& f);
   void slide_window(EstimatorTiming* timing);
   void merge_into_newest(WindowFrame& second, WindowFrame& newest);
   void set_nav_from(const WindowFrame& f);
@@ -177,6 +180,8 @@ class Estimator {
   RigCalibration rig_;
   Eigen::Vector3d g_w_;
   EstimatorMode mode_ = EstimatorMode::kImuOnly;
+  bool tracking_ok_ = true;             // the newest frame tracked min_tracked_landmarks
+  std::int64_t tracking_since_ns_ = 0;  // since when tracking_ok_ has held
   EstimatorStats stats_;
   KeyframeSelector keyframes_;
 

@@ -236,7 +236,7 @@ bool Estimator::solve_stages(WindowFrame& f, SolveSpec* spec) {
 
 void Estimator::remove_frame(int pos) {
   // Without the IMU nothing but vision holds the window: keep the points (landmark_map.hpp).
-  const Rehost how = mode_ == EstimatorMode::kVio ? Rehost::kMeasuredRay : Rehost::kKeepPoint;
+  const Rehost how = inertial_window() ? Rehost::kMeasuredRay : Rehost::kKeepPoint;
   landmarks_->remove_frame(window_->slot_at(pos), *window_, how);
   window_->erase(pos);
 }
@@ -262,7 +262,7 @@ void Estimator::slide_window(EstimatorTiming* timing) {
   if (frames < options_.window_size) return;
   const auto t0 = std::chrono::steady_clock::now();
   WindowFrame& newest = window_->newest();
-  const bool vio = mode_ == EstimatorMode::kVio;
+  const bool vio = inertial_window();
   if (newest.keyframe) {
     int ids[2 + capacity::kMaxLandmarks];
     const int n = vio ? builder_->oldest_frame_blocks(ids) : 0;

@@ -50,6 +50,9 @@ void EstimatorOptions::validate() const {
   require(td_sigma_ms > 0.0, "td_sigma_ms", td_sigma_ms);
   require(td_max_change_ms > 0.0, "td_max_change_ms", td_max_change_ms);
   require(imu_max_gap_ms > 0.0 && imu_max_gap_ms <= 10000.0, "imu_max_gap_ms", imu_max_gap_ms);
+  require(min_tracked_landmarks >= 0, "min_tracked_landmarks", min_tracked_landmarks);
+  require(vision_lost_after_s >= 0.0 && vision_lost_after_s <= 60.0, "vision_lost_after_s", vision_lost_after_s);
+  require(vision_back_after_s >= 0.0 && vision_back_after_s <= 60.0, "vision_back_after_s", vision_back_after_s);
   require(gyro_scale_sigma_pct > 0.0, "gyro_scale_sigma_pct", gyro_scale_sigma_pct);
   require(gyro_scale_max_pct > 0.0, "gyro_scale_max_pct", gyro_scale_max_pct);
   preintegration.validate();

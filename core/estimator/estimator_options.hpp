@@ -99,7 +99,12 @@ struct EstimatorOptions {
                                           // which an IMU standstill is uniform motion instead
 
   // --- failure handling ---
-  int min_tracked_landmarks = 10;          // fewer observed landmarks in a new frame: visual loss
+  // VIO reports VISION_LOST (the pose is the IMU's) when its frames see fewer than
+  // min_tracked_landmarks tracked landmarks for vision_lost_after_s, and VIO again when they see
+  // that many for vision_back_after_s. A single dark frame changes nothing.
+  int min_tracked_landmarks = 10;          // landmarks tracked into a new frame
+  double vision_lost_after_s = 0.25;       // s
+  double vision_back_after_s = 0.25;       // s
   double max_speed_m_s = 20.0;             // m/s, beyond it the window is reset (divergence)
 
   void validate() const;  // throws std::invalid_argument naming the field and value

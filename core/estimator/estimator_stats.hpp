@@ -19,7 +19,7 @@ struct ModeChange {
 
 struct EstimatorStats {
   std::uint64_t frames = 0;
-  std::uint64_t frames_in_mode[3] = {0, 0, 0};
+  std::uint64_t frames_in_mode[kEstimatorModes] = {0, 0, 0, 0};
   bool initialized = false;            // reached VIO
   std::int64_t first_frame_t_ns = -1;
   std::int64_t init_t_ns = -1;         // first time VIO was reached

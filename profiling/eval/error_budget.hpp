@@ -29,7 +29,7 @@ struct BudgetOptions {
 };
 
 struct PhaseError {
-  std::string mode;             // "IMU_ONLY", "VO", "VIO", ...
+  std::string mode;             // "IMU_ONLY", "VO", "VIO", "VISION_LOST", ...
   std::size_t poses = 0;        // matched poses estimated in this mode
   double duration_s = 0.0;      // s in this mode between the first and last matched pose
   double ate_rmse_m = 0.0;      // m, RMSE over those poses under the global SE(3); NaN if none

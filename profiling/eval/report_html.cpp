@@ -222,6 +222,7 @@ const char* mode_color(const std::string& mode) {
   if (mode == "VIO") return "#2ca02c";
   if (mode == "VO") return "#1f77b4";
   if (mode == "IMU_ONLY") return "#ff7f0e";
+  if (mode == "VISION_LOST") return "#8c564b";
   if (mode == "INIT" || mode == "INITIALIZING") return "#9e9e9e";
   if (mode == "LOST" || mode == "FAILED") return "#d62728";
   unsigned hsh = 0;

@@ -78,6 +78,8 @@ class FeatureTracker {
     for (std::size_t i = 0; i < order_.size(); ++i) order_[i] = static_cast<int>(i);
   }
 
+  void lose_all() { tracks_.clear(); }
+
   void frame(const Eigen::Isometry3d& T_w_c0, const Eigen::Isometry3d& T_w_c1, FrameFeatures* ff) {
     std::vector<Track> kept;
     for (Track tk : tracks_)
@@ -232,15 +234,28 @@ FeatureFlightResult fly_features(const FeatureFlightOptions& o) {
   std::size_t k_imu = 0;
   const std::int64_t dt_ns = static_cast<std::int64_t>(std::llround(1e9 / rig.cam[0].rate_hz));
   for (std::int64_t t = tr.t_begin_ns + dt_ns; t <= tr.t_end_ns; t += dt_ns) {
-    while (k_imu < imu.samples.size() && imu.samples[k_imu].t_ns <= t) est->add_imu(imu.samples[k_imu++]);
+    for (; k_imu < imu.samples.size() && imu.samples[k_imu].t_ns <= t; ++k_imu) {
+      const double imu_t_s = static_cast<double>(imu.samples[k_imu].t_ns - tr.t_begin_ns) * 1e-9;
+      if (o.imu_gap_start_s >= 0.0 && imu_t_s >= o.imu_gap_start_s && imu_t_s < o.imu_gap_start_s + o.imu_gap_s) continue;
+      est->add_imu(imu.samples[k_imu]);
+    }
     const Eigen::Isometry3d T_w_b = tr.T_w_b(t);
     ff->clear();
     ff->t_ns = t;
     ff->seq = static_cast<std::uint64_t>(res.frames);
-    tracker.frame(T_w_b * T_b_c0, T_w_b * T_b_c1, ff.get());
+    const double t_s = static_cast<double>(t - tr.t_begin_ns) * 1e-9;
+    if (o.blackout_start_s >= 0.0 && t_s >= o.blackout_start_s && t_s < o.blackout_start_s + o.blackout_s) {
+      tracker.lose_all();
+    } else {
+      tracker.frame(T_w_b * T_b_c0, T_w_b * T_b_c1, ff.get());
+    }
     EstimatorOutput out;
     est->add_frame(*ff, &out, nullptr);
     ++res.frames;
+    res.frame_t_s.push_back(t_s);
+    res.frame_mode.push_back(out.mode);
+    res.frame_finite.push_back(out.p_w_b.allFinite() && out.q_w_b.coeffs().allFinite());
+    res.frame_reset_counter.push_back(out.reset_counter);
     if (out.mode == EstimatorMode::kVio) ++res.vio_frames;
     if (!out.valid) continue;
     ++res.valid_frames;

@@ -28,6 +28,10 @@ struct FeatureFlightOptions {
   double wall_margin_m = 2.5;         // m, walls beyond the path's bounding box (the procedural room)
   int points = 6000;                  // on the room's six faces
   std::uint64_t seed = 1;             // points, noise and the simulator's IMU
+  double blackout_start_s = -1.0;     // s into the cut: no features from here (< 0: none)
+  double blackout_s = 0.0;            // s, for this long; every track is lost
+  double imu_gap_start_s = -1.0;      // s into the cut: IMU samples lost from here (< 0: none)
+  double imu_gap_s = 0.0;             // s, for this long
   EstimatorOptions estimator;
   KeyframeSink* keyframe_sink = nullptr;   // not owned: the estimator's keyframe outlet
   RelocationLink* relocation = nullptr;    // not owned: tightly coupled relocation
@@ -44,6 +48,11 @@ struct FeatureFlightResult {
   std::vector<double> t_s;
   std::vector<Eigen::Vector3d> p_err_m;
   std::vector<double> yaw_err_deg, heading_deg;
+  // Every frame, valid or not: time (s into the cut), mode, position finite, reset_counter.
+  std::vector<double> frame_t_s;
+  std::vector<EstimatorMode> frame_mode;
+  std::vector<bool> frame_finite;
+  std::vector<std::uint32_t> frame_reset_counter;
 };
 
 // Flies o.trajectory through the estimator at the camera rate of the EuRoC preset.
