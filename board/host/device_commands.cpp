@@ -31,7 +31,7 @@
 namespace ums::cli {
 namespace {
 
-std::atomic<bool> g_stop{false};  // set by SIGINT only: the one global a signal handler needs
+std::atomic<bool> g_stop{false};  // set by SIGINT/SIGTERM only: the one global a signal handler needs
 
 extern "C" void on_sigint(int) { g_stop.store(true); }
 
@@ -39,12 +39,18 @@ class SigintScope {
  public:
   SigintScope() {
     g_stop.store(false);
+    // Ctrl-C and a service manager's stop end a run the same way: the recorder closes its files.
     previous_ = std::signal(SIGINT, on_sigint);
+    previous_term_ = std::signal(SIGTERM, on_sigint);
   }
-  ~SigintScope() { std::signal(SIGINT, previous_); }
+  ~SigintScope() {
+    std::signal(SIGINT, previous_);
+    std::signal(SIGTERM, previous_term_);
+  }
 
  private:
   void (*previous_)(int) = SIG_DFL;
+  void (*previous_term_)(int) = SIG_DFL;
 };
 
 d455::D455Options device_options_from(const AppConfig& config) {

@@ -6,7 +6,12 @@
 // it directly (reader -> writer copies a dataset).
 //
 // Per-frame cost: two PNG encodes through libpng, which allocates its encoder state per image
-// (not a hot-path component: recording is I/O bound).
+// (not a hot-path component: recording is I/O bound), and one flush of the CSVs.
+//
+// Nothing acknowledged is lost, and nothing half-written stays: every frame commits the rows so
+// far (the CSVs are flushed and their sizes noted). When a write fails (a full disk, a file size
+// limit), the frame's PNGs are removed and each CSV is cut back to its last committed size, so
+// the folder is a valid dataset of everything committed before (frames_written(), imu_written()).
 
 #include <cstdio>
 #include <string>
@@ -46,17 +51,28 @@ class EurocWriter : public MeasurementSink {
 
   Status status() const { return status_; }
   const std::string& error() const { return error_; }
+  // Rows in the dataset: committed (and, until a failure, the IMU rows since the last frame).
   std::uint64_t frames_written() const { return frames_; }
   std::uint64_t imu_written() const { return imu_rows_; }
 
  private:
+  struct Csv {
+    std::FILE* f = nullptr;
+    std::string path;
+    long committed_bytes = 0;  // size after the last successful flush
+  };
+  enum : int { kCam0 = 0, kCam1 = 1, kImu = 2, kGt = 3, kFiles = 4 };
+
   Status fail(Status s, const std::string& message);
+  // A write failed: the CSVs are cut back to their committed sizes (files closed).
+  Status roll_back(const std::string& message);
+  Status commit();  // flushes every CSV; roll_back() when that fails
+  void create_csv(int which, const std::string& path, const char* header);
   void close_files();
 
   std::string mav0_;
-  std::FILE* cam_csv_[2] = {nullptr, nullptr};
-  std::FILE* imu_csv_ = nullptr;
-  std::FILE* gt_csv_ = nullptr;
+  Csv csv_[kFiles];
+  std::uint64_t frames_committed_ = 0, imu_committed_ = 0;
   std::int64_t last_frame_t_ns_ = 0, last_imu_t_ns_ = 0, last_gt_t_ns_ = 0;
   bool any_frame_ = false, any_imu_ = false, any_gt_ = false;
   std::uint64_t frames_ = 0, imu_rows_ = 0;

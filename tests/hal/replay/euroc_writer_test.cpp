@@ -1,6 +1,13 @@
 #include "hal/replay/euroc_writer.hpp"
 
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <catch2/catch.hpp>
+#include <csignal>
+#include <cstdio>
+#include <fstream>
 #include <vector>
 
 #include "hal/replay/euroc_groundtruth.hpp"
@@ -183,4 +190,122 @@ TEST_CASE("EuRoC writer reports an unwritable folder", "[euroc][writer]") {
   CHECK_THROWS_WITH(writer.open("/proc/ums_no_such/dir", test_rig()), Catch::Contains("/proc/ums_no_such/dir: cannot create folder"));
   StereoFrame frame;
   CHECK(writer.write_stereo(frame) == ums::Status::kInvalidInput);
+}
+
+namespace {
+
+// What a writer that ran out of room reported (from a child process, over a pipe).
+struct FullDiskRun {
+  int status = -1;
+  std::uint64_t frames = 0, imu = 0;
+  char error[256] = {};
+};
+
+// Writes 20 Hz frames (40x30, or 400x300 noise from big_frame on: about 120 KB of PNG) with
+// 400 Hz IMU into dir, in a child process whose files may not grow beyond limit_bytes (a full
+// disk as the writer sees it: the write fails with EFBIG instead of ENOSPC), until a write fails.
+FullDiskRun write_until_full(const std::string& dir, long limit_bytes, int big_frame) {
+  int fds[2];
+  REQUIRE(::pipe(fds) == 0);
+  const pid_t pid = ::fork();
+  REQUIRE(pid >= 0);
+  if (pid == 0) {
+    ::close(fds[0]);
+    std::signal(SIGXFSZ, SIG_IGN);
+    const struct rlimit lim{static_cast<rlim_t>(limit_bytes), static_cast<rlim_t>(limit_bytes)};
+    ::setrlimit(RLIMIT_FSIZE, &lim);
+    FullDiskRun r;
+    ums::hal::EurocWriter writer;
+    writer.open(dir, test_rig());
+    std::vector<std::uint8_t> px[2] = {std::vector<std::uint8_t>(400 * 300), std::vector<std::uint8_t>(400 * 300)};
+    std::uint32_t noise = 12345;
+    ums::Status st = ums::Status::kOk;
+    for (int f = 0; f < 2000 && st == ums::Status::kOk; ++f) {
+      const std::int64_t t0 = 1'000'000'000LL + f * 50'000'000LL;
+      for (int k = 0; k < 20 && st == ums::Status::kOk; ++k) {
+        ImuSample s;
+        s.t_ns = t0 + k * 2'500'000LL;
+        s.gyro_rad_s = Eigen::Vector3d(0.1 * f, -0.2, 0.3 + k);
+        s.accel_m_s2 = Eigen::Vector3d(0.4, 9.81, -0.01 * k);
+        st = writer.write_imu(s);
+      }
+      if (st != ums::Status::kOk) break;
+      const int w = f >= big_frame ? 400 : 40, h = f >= big_frame ? 300 : 30;
+      for (auto& p : px)
+        for (auto& v : p) v = static_cast<std::uint8_t>((noise = noise * 1664525u + 1013904223u) >> 24);
+      StereoFrame frame;
+      frame.t_ns = t0 + 50'000'000LL - 1;
+      frame.left = ums::ImageView{px[0].data(), w, h, w};
+      frame.right = ums::ImageView{px[1].data(), w, h, w};
+      st = writer.write_stereo(frame);
+    }
+    try {
+      writer.close();
+    } catch (const std::exception&) {
+    }
+    r.status = static_cast<int>(writer.status());
+    r.frames = writer.frames_written();
+    r.imu = writer.imu_written();
+    std::snprintf(r.error, sizeof r.error, "%s", writer.error().c_str());
+    (void)!::write(fds[1], &r, sizeof r);
+    ::_exit(0);
+  }
+  ::close(fds[1]);
+  FullDiskRun r;
+  REQUIRE(::read(fds[0], &r, sizeof r) == static_cast<ssize_t>(sizeof r));
+  ::close(fds[0]);
+  int wstatus = 0;
+  ::waitpid(pid, &wstatus, 0);
+  REQUIRE(WIFEXITED(wstatus));
+  return r;
+}
+
+// Every committed frame and IMU row reads back; nothing more.
+void check_replays(const std::string& dir, const FullDiskRun& r) {
+  EurocReader reader;
+  reader.open(dir);
+  std::uint64_t frames = 0, imu = 0;
+  ImuSample s;
+  StereoFrame f;
+  for (;;) {
+    const auto e = reader.next(&s, &f);
+    if (e == EurocReader::Event::kEnd) break;
+    if (e == EurocReader::Event::kImu) ++imu;
+    if (e == EurocReader::Event::kStereo) {
+      ++frames;
+      CHECK(f.right.valid());
+    }
+  }
+  CHECK(frames == r.frames);
+  CHECK(imu == r.imu);
+}
+
+}  // namespace
+
+// A full disk mid-recording: a clear error naming the file, and the folder is a dataset of
+// everything the writer had committed (whole rows, whole PNG pairs), which the reader replays.
+TEST_CASE("EuRoC writer on a full disk keeps a valid dataset of what it committed", "[euroc][writer]") {
+  SECTION("the IMU file fills first") {
+    const std::string dir = ums::test::make_temp_dir("euroc_writer_full_imu");
+    const FullDiskRun r = write_until_full(dir, 64 * 1024, 1 << 30);
+    INFO(r.error);
+    CHECK(r.status == static_cast<int>(ums::Status::kIoError));
+    CHECK(std::string(r.error).find("imu0/data.csv: write failed (File too large)") != std::string::npos);
+    CHECK(std::string(r.error).find("the dataset keeps the " + std::to_string(r.frames) + " frames") != std::string::npos);
+    CHECK(r.frames >= 20);  // about 480 IMU rows fit in 64 KB
+    CHECK(r.imu == 20 * r.frames);
+    check_replays(dir, r);
+  }
+  SECTION("a PNG does not fit") {
+    const std::string dir = ums::test::make_temp_dir("euroc_writer_full_png");
+    const FullDiskRun r = write_until_full(dir, 64 * 1024, 5);
+    INFO(r.error);
+    CHECK(r.status == static_cast<int>(ums::Status::kIoError));
+    CHECK(r.frames == 5);
+    CHECK(r.imu == 100);
+    // The frame that did not fit left no file behind.
+    CHECK_FALSE(std::ifstream(dir + "/mav0/cam0/data/1299999999.png").good());
+    CHECK(std::ifstream(dir + "/mav0/cam0/data/1249999999.png").good());
+    check_replays(dir, r);
+  }
 }
