@@ -225,6 +225,70 @@ TEST_CASE("pipeline: NaN and huge IMU samples are dropped and counted, the poses
   }
 }
 
+// What the configuration did not plan for (issue 20 item 4): pairs larger than the calibration
+// (1280x800 into a 752x480 pipeline) are refused and counted; a 2 kHz IMU (10x EuRoC's) fits the
+// preintegration without a drop; white-noise images (corners everywhere, far more than max_cnt)
+// give at most max_cnt features. Memory stays fixed: no allocation once running.
+TEST_CASE("pipeline under overload: oversized pairs refused, a 2 kHz IMU, corners everywhere", "[pipeline]") {
+  ums::hal::EurocReader reader;
+  reader.open(ums::test::euroc_micro_dir(), ums::hal::EurocReaderOptions());
+  auto pipeline = make_pipeline(reader.calibration(), false);
+  Run run;
+  RecordObserver observer;
+  observer.records = &run.records;
+  observer.estimated_valid = &run.estimated_valid;
+  run.records.reserve(kReserve);
+  pipeline->set_frame_observer(&observer);
+  std::vector<std::uint8_t> big(1280 * 800, 128), noise[2] = {std::vector<std::uint8_t>(752 * 480),
+                                                              std::vector<std::uint8_t>(752 * 480)};
+  std::uint32_t state = 7;
+  constexpr int kFrames = 60, kBig = 10, kImuPerFrame = 100;  // 20 Hz pairs, 2 kHz IMU
+  std::uint64_t steady_allocations = 0;
+  int most_features = 0;
+  for (int k = 0; k < kFrames; ++k) {
+    ums::AllocScope scope;
+    for (int i = 0; i < kImuPerFrame; ++i) {
+      ums::ImuSample s;
+      s.t_ns = 1'000'000'000LL + (k * kImuPerFrame + i) * 500'000LL;
+      s.gyro_rad_s = Eigen::Vector3d(0.01, -0.02, 0.005);
+      s.accel_m_s2 = Eigen::Vector3d(0.0, 0.0, 9.81);
+      pipeline->on_imu(s);
+    }
+    ums::StereoFrame frame;
+    frame.t_ns = 1'000'000'000LL + (k + 1) * kImuPerFrame * 500'000LL;
+    frame.seq = static_cast<std::uint64_t>(k);
+    if (k < kBig) {
+      frame.left = frame.right = ums::ImageView{big.data(), 1280, 800, 1280};
+    } else {
+      for (auto& img : noise)
+        for (auto& v : img) v = static_cast<std::uint8_t>((state = state * 1664525u + 1013904223u) >> 24);
+      frame.left = ums::ImageView{noise[0].data(), 752, 480, 752};
+      frame.right = ums::ImageView{noise[1].data(), 752, 480, 752};
+    }
+    pipeline->on_stereo(frame);
+    const int n = static_cast<int>(pipeline->features().features.size());
+    CHECK(n <= ums::FrontendOptions().max_cnt);
+    if (k >= kBig) most_features = std::max(most_features, n);
+    if (k >= 30) steady_allocations += scope.allocations();
+  }
+  pipeline->flush();
+  const ums::VioPipelineCounters c = pipeline->counters();
+  CHECK(c.frames == kFrames);
+  CHECK(c.frontend_rejected_frames == kBig);
+  CHECK(c.imu_samples == static_cast<std::uint64_t>(kFrames * kImuPerFrame));
+  REQUIRE(pipeline->estimator() != nullptr);
+  CHECK(pipeline->estimator()->stats().drops_imu == 0);
+  int full_frames = 0;
+  for (const ums::VioFrameRecord& r : run.records) {
+    if (r.frontend_status != ums::Status::kOk) continue;
+    CHECK(r.estimate.p_w_b.allFinite());
+    ++full_frames;
+  }
+  CHECK(full_frames == kFrames - kBig);
+  CHECK(most_features == ums::FrontendOptions().max_cnt);  // the budget filled, never more
+  CHECK(steady_allocations == 0);
+}
+
 // The estimator names its frames (EstimatorOutput::frame_id): the keyframe outlet passes the name
 // on, and names never repeat.
 TEST_CASE("pipeline: keyframe images arrive with increasing FrameIds", "[pipeline]") {
