@@ -51,6 +51,9 @@ cv::FileStorage open_yaml(const std::string& path) {
   if (const std::size_t at = hal::yaml_first_control_byte(body); at != std::string::npos) {
     throw std::runtime_error(path + ": byte " + std::to_string(at) + " is a control character, not YAML text");
   }
+  if (const std::size_t stray = hal::yaml_first_stray_line(body); stray != 0) {
+    throw std::runtime_error(path + ":" + std::to_string(stray) + ": expected \"key: value\" or \"- item\"");
+  }
   if (body.compare(0, 5, "%YAML") != 0) body = "%YAML:1.0\n---\n" + body;
   try {
     cv::FileStorage fs(body, cv::FileStorage::READ | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);

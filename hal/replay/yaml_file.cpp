@@ -72,6 +72,52 @@ std::size_t yaml_first_control_byte(const std::string& text) {
   return std::string::npos;
 }
 
+namespace {
+
+// Flow-collection depth after one line (quotes and comments skipped); starts at `depth`.
+int flow_depth_after(const std::string& text, std::size_t begin, std::size_t end, int depth) {
+  char quote = 0;
+  for (std::size_t i = begin; i < end; ++i) {
+    const char c = text[i];
+    if (quote != 0) {
+      if (c == quote) quote = 0;
+    } else if (c == '"' || c == '\'') {
+      quote = c;
+    } else if (c == '#' && (i == begin || text[i - 1] == ' ' || text[i - 1] == '\t')) {
+      break;
+    } else if (c == '[' || c == '{') {
+      ++depth;
+    } else if ((c == ']' || c == '}') && depth > 0) {
+      --depth;
+    }
+  }
+  return depth;
+}
+
+// A content line at depth 0 that the readers accept: "key:..." or "- item".
+bool key_or_item(const std::string& text, std::size_t first, std::size_t end) {
+  const bool item = text[first] == '-' && (first + 1 >= end || text[first + 1] == ' ' || text[first + 1] == '\r');
+  return item || text.find(':', first) < end;
+}
+
+}  // namespace
+
+std::size_t yaml_first_stray_line(const std::string& text) {
+  int depth = 0;
+  std::size_t line = 0;
+  for (std::size_t at = 0; at < text.size();) {
+    ++line;
+    const std::size_t end = std::min(text.find('\n', at), text.size());
+    const std::size_t first = text.find_first_not_of(" \t\r", at);
+    const bool skip = first >= end || text[first] == '#' || text[first] == '%' ||
+                      text.compare(first, 3, "---") == 0 || text.compare(first, 3, "...") == 0;
+    if (!skip && depth == 0 && !key_or_item(text, first, end)) return line;
+    if (!skip) depth = flow_depth_after(text, first, end, depth);
+    at = end + 1;
+  }
+  return 0;
+}
+
 YamlFile::YamlFile(const std::string& path) : path_(path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw std::runtime_error(path + ": cannot open");
@@ -81,6 +127,9 @@ YamlFile::YamlFile(const std::string& path) : path_(path) {
   if (!yaml_root_is_map(text)) throw std::runtime_error(path + ": expected a YAML map of keys");
   if (const std::size_t at = yaml_first_control_byte(text); at != std::string::npos) {
     throw std::runtime_error(path + ": byte " + std::to_string(at) + " is a control character, not YAML text");
+  }
+  if (const std::size_t line = yaml_first_stray_line(text); line != 0) {
+    throw std::runtime_error(path + ":" + std::to_string(line) + ": expected \"key: value\" or \"- item\"");
   }
   const bool add_directive = text.compare(0, 5, "%YAML") != 0;
   if (add_directive) text = "%YAML:1.0\n" + text;

@@ -27,6 +27,13 @@ bool yaml_root_is_map(const std::string& text);
 // never returns on " T:a\nb: -\n\f" (found by tests/fuzz/kalibr_fuzz).
 std::size_t yaml_first_control_byte(const std::string& text);
 
+// The 1-based number of the first content line, outside any flow collection ([...], {...}, which
+// may span lines), that is neither a "key:" line nor a "- item" (nor a directive, "---", "...",
+// blank or comment), or 0. Every file read here (EuRoC sensor.yaml, VINS-Fusion configs and
+// camodocal files, Kalibr) is made of such lines; a stray plain line is refused before OpenCV
+// parses, which never returns on "#\n u:[]\nx  -\ni" (found by tests/fuzz/kalibr_fuzz).
+std::size_t yaml_first_stray_line(const std::string& text);
+
 class YamlFile {
  public:
   // Throws std::runtime_error "<path>: cannot open (...)" or "<path>:<line>: YAML syntax error: ...".

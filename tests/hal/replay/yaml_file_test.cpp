@@ -2,6 +2,7 @@
 
 #include <catch2/catch.hpp>
 #include <fstream>
+#include <sstream>
 
 #include "tests/common/test_paths.hpp"
 
@@ -78,4 +79,29 @@ TEST_CASE("YamlFile refuses control characters, without hanging OpenCV", "[yaml]
   CHECK_THROWS_WITH(YamlFile(path), path + ": byte 10 is a control character, not YAML text");
   CHECK(ums::hal::yaml_first_control_byte("a: 1\t# c\r\n") == std::string::npos);
   CHECK(ums::hal::yaml_first_control_byte(std::string("a: \0", 4)) == 3);
+}
+
+// Found by tests/fuzz/kalibr_fuzz (a timeout): OpenCV 4.6's parser never returns on this plain
+// ASCII text. Every file read here is "key:" lines, "- item" lines and flow collections, so a
+// stray plain line is refused first, naming it; the shared files all pass.
+TEST_CASE("YamlFile refuses a stray plain line, naming it, without hanging OpenCV", "[yaml][fuzz]") {
+  const std::string path = ums::test::make_temp_dir("yaml_file_stray") + "/hang.yaml";
+  std::ofstream(path) << "#\n u:[]\nx  -\ni";
+  CHECK_THROWS_WITH(YamlFile(path), path + ":3: expected \"key: value\" or \"- item\"");
+  using ums::hal::yaml_first_stray_line;
+  CHECK(yaml_first_stray_line("%YAML:1.0\n---\n# c\na: 1\nm: !!opencv-matrix\n   rows: 1\n   data: [1, 2,\n      3, 4]\n") == 0);
+  CHECK(yaml_first_stray_line("T:\n- [1, 2]\n-\n  - 3\ns: \"x ] y\" # ]\n...\n") == 0);
+  CHECK(yaml_first_stray_line("a: [1,\n 2]\nb\n") == 3);
+  CHECK(yaml_first_stray_line("a: \"[\"\nplain text\n") == 2);  // a bracket in quotes opens nothing
+  CHECK(yaml_first_stray_line("a: 1 # [\nb c\n") == 2);        // nor one in a comment
+  CHECK(yaml_first_stray_line("-x: 1\n") == 0);                 // a key that starts with '-'
+  // Every YAML file the project ships or reads from ../shared passes.
+  for (const std::string& f : {ums::test::euroc_micro_dir() + "/mav0/cam0/sensor.yaml",
+                               ums::test::euroc_micro_dir() + "/mav0/imu0/sensor.yaml"}) {
+    std::ifstream in(f);
+    std::stringstream text;
+    text << in.rdbuf();
+    INFO(f);
+    CHECK(yaml_first_stray_line(text.str()) == 0);
+  }
 }
