@@ -54,6 +54,9 @@ cv::FileStorage open_yaml(const std::string& path) {
   if (const std::size_t stray = hal::yaml_first_stray_line(body); stray != 0) {
     throw std::runtime_error(path + ":" + std::to_string(stray) + ": expected \"key: value\" or \"- item\"");
   }
+  if (const std::size_t open = hal::yaml_unclosed_flow_line(body); open != 0) {
+    throw std::runtime_error(path + ":" + std::to_string(open) + ": YAML syntax error: '[' or '{' never closed");
+  }
   if (body.compare(0, 5, "%YAML") != 0) body = "%YAML:1.0\n---\n" + body;
   try {
     cv::FileStorage fs(body, cv::FileStorage::READ | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML);

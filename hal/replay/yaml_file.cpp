@@ -100,22 +100,42 @@ bool key_or_item(const std::string& text, std::size_t first, std::size_t end) {
   return item || text.find(':', first) < end;
 }
 
-}  // namespace
-
-std::size_t yaml_first_stray_line(const std::string& text) {
+// Walks the content lines: calls on_line(line number, first, end, depth at its start) and
+// returns the line that opened a flow collection still open at the end (0: none). on_line
+// returning false stops the walk (the result is then 0).
+template <typename OnLine>
+std::size_t walk_yaml_lines(const std::string& text, OnLine on_line) {
   int depth = 0;
-  std::size_t line = 0;
+  std::size_t line = 0, opened_at = 0;
   for (std::size_t at = 0; at < text.size();) {
     ++line;
     const std::size_t end = std::min(text.find('\n', at), text.size());
     const std::size_t first = text.find_first_not_of(" \t\r", at);
     const bool skip = first >= end || text[first] == '#' || text[first] == '%' ||
                       text.compare(first, 3, "---") == 0 || text.compare(first, 3, "...") == 0;
-    if (!skip && depth == 0 && !key_or_item(text, first, end)) return line;
-    if (!skip) depth = flow_depth_after(text, first, end, depth);
+    if (!skip) {
+      if (!on_line(line, first, end, depth)) return 0;
+      if (depth == 0) opened_at = line;
+      depth = flow_depth_after(text, first, end, depth);
+    }
     at = end + 1;
   }
-  return 0;
+  return depth > 0 ? opened_at : 0;
+}
+
+}  // namespace
+
+std::size_t yaml_first_stray_line(const std::string& text) {
+  std::size_t stray = 0;
+  walk_yaml_lines(text, [&](std::size_t line, std::size_t first, std::size_t end, int depth) {
+    if (depth == 0 && !key_or_item(text, first, end)) stray = line;
+    return stray == 0;
+  });
+  return stray;
+}
+
+std::size_t yaml_unclosed_flow_line(const std::string& text) {
+  return walk_yaml_lines(text, [](std::size_t, std::size_t, std::size_t, int) { return true; });
 }
 
 YamlFile::YamlFile(const std::string& path) : path_(path) {
@@ -130,6 +150,9 @@ YamlFile::YamlFile(const std::string& path) : path_(path) {
   }
   if (const std::size_t line = yaml_first_stray_line(text); line != 0) {
     throw std::runtime_error(path + ":" + std::to_string(line) + ": expected \"key: value\" or \"- item\"");
+  }
+  if (const std::size_t line = yaml_unclosed_flow_line(text); line != 0) {
+    throw std::runtime_error(path + ":" + std::to_string(line) + ": YAML syntax error: '[' or '{' never closed");
   }
   const bool add_directive = text.compare(0, 5, "%YAML") != 0;
   if (add_directive) text = "%YAML:1.0\n" + text;

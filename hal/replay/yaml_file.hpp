@@ -34,6 +34,10 @@ std::size_t yaml_first_control_byte(const std::string& text);
 // parses, which never returns on "#\n u:[]\nx  -\ni" (found by tests/fuzz/kalibr_fuzz).
 std::size_t yaml_first_stray_line(const std::string& text);
 
+// The 1-based number of the line that opened a flow collection ('[' or '{') still open at the
+// end of the text, or 0. OpenCV 4.6 never returns on some such texts either (kalibr_fuzz).
+std::size_t yaml_unclosed_flow_line(const std::string& text);
+
 class YamlFile {
  public:
   // Throws std::runtime_error "<path>: cannot open (...)" or "<path>:<line>: YAML syntax error: ...".

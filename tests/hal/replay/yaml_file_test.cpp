@@ -56,6 +56,8 @@ TEST_CASE("YamlFile syntax errors give the file's own line, with or without %YAM
   std::ofstream(dir + "/without.yaml") << "a: 1\nb: [1, 2\n";
   CHECK_THROWS_WITH(YamlFile(dir + "/with.yaml"), Catch::Contains("with.yaml:3: YAML syntax error"));
   CHECK_THROWS_WITH(YamlFile(dir + "/without.yaml"), Catch::Contains("without.yaml:2: YAML syntax error"));
+  std::ofstream(dir + "/opencv.yaml") << "a: 1\nb: [1, 2]]\n";  // OpenCV's own message, its line
+  CHECK_THROWS_WITH(YamlFile(dir + "/opencv.yaml"), Catch::Contains("opencv.yaml:2: YAML syntax error"));
   CHECK_THROWS_WITH(YamlFile(dir + "/absent.yaml"), Catch::Contains("absent.yaml: cannot open"));
 }
 
@@ -95,6 +97,12 @@ TEST_CASE("YamlFile refuses a stray plain line, naming it, without hanging OpenC
   CHECK(yaml_first_stray_line("a: \"[\"\nplain text\n") == 2);  // a bracket in quotes opens nothing
   CHECK(yaml_first_stray_line("a: 1 # [\nb c\n") == 2);        // nor one in a comment
   CHECK(yaml_first_stray_line("-x: 1\n") == 0);                 // a key that starts with '-'
+  // A '[' never closed (kalibr_fuzz found a text OpenCV hangs on with one): its line.
+  CHECK(ums::hal::yaml_unclosed_flow_line("a: 1\nb: [1,\n 2\n") == 2);
+  CHECK(ums::hal::yaml_unclosed_flow_line("a: [1,\n 2]\nb: {c: [3]}\n") == 0);
+  const std::string hang = ums::test::make_temp_dir("yaml_file_unclosed") + "/hang.yaml";
+  std::ofstream(hang) << "!a'0:\n  T_cui:m_ma.]\n;  - [0.stortion_model: equidistant\n  intradta [222";
+  CHECK_THROWS_WITH(YamlFile(hang), hang + ":3: YAML syntax error: '[' or '{' never closed");
   // Every YAML file the project ships or reads from ../shared passes.
   for (const std::string& f : {ums::test::euroc_micro_dir() + "/mav0/cam0/sensor.yaml",
                                ums::test::euroc_micro_dir() + "/mav0/imu0/sensor.yaml"}) {
