@@ -100,6 +100,14 @@ bool key_or_item(const std::string& text, std::size_t first, std::size_t end) {
   return item || text.find(':', first) < end;
 }
 
+// "---" or "..." alone on its line (a comment may follow). With content after it, the line is
+// content (and refused as stray: OpenCV never returns on "...  - [0]" after a sequence).
+bool document_marker(const std::string& text, std::size_t first, std::size_t end) {
+  if (text.compare(first, 3, "---") != 0 && text.compare(first, 3, "...") != 0) return false;
+  const std::size_t rest = text.find_first_not_of(" \t\r", first + 3);
+  return rest >= end || text[rest] == '#';
+}
+
 // Walks the content lines: calls on_line(line number, first, end, depth at its start) and
 // returns the line that opened a flow collection still open at the end (0: none). on_line
 // returning false stops the walk (the result is then 0).
@@ -111,8 +119,7 @@ std::size_t walk_yaml_lines(const std::string& text, OnLine on_line) {
     ++line;
     const std::size_t end = std::min(text.find('\n', at), text.size());
     const std::size_t first = text.find_first_not_of(" \t\r", at);
-    const bool skip = first >= end || text[first] == '#' || text[first] == '%' ||
-                      text.compare(first, 3, "---") == 0 || text.compare(first, 3, "...") == 0;
+    const bool skip = first >= end || text[first] == '#' || text[first] == '%' || document_marker(text, first, end);
     if (!skip) {
       if (!on_line(line, first, end, depth)) return 0;
       if (depth == 0) opened_at = line;

@@ -97,6 +97,9 @@ TEST_CASE("YamlFile refuses a stray plain line, naming it, without hanging OpenC
   CHECK(yaml_first_stray_line("a: \"[\"\nplain text\n") == 2);  // a bracket in quotes opens nothing
   CHECK(yaml_first_stray_line("a: 1 # [\nb c\n") == 2);        // nor one in a comment
   CHECK(yaml_first_stray_line("-x: 1\n") == 0);                 // a key that starts with '-'
+  // A document marker with content after it is content (kalibr_fuzz: OpenCV hangs on this).
+  CHECK(yaml_first_stray_line("a:\n  - [1]\n...  - [0, 0]\n") == 3);
+  CHECK(yaml_first_stray_line("--- # c\na: 1\n...\n") == 0);
   // A '[' never closed (kalibr_fuzz found a text OpenCV hangs on with one): its line.
   CHECK(ums::hal::yaml_unclosed_flow_line("a: 1\nb: [1,\n 2\n") == 2);
   CHECK(ums::hal::yaml_unclosed_flow_line("a: [1,\n 2]\nb: {c: [3]}\n") == 0);
