@@ -12,8 +12,8 @@ target_link_libraries(ums_catch_main PUBLIC Catch2::Catch2)
 target_compile_definitions(ums_catch_main PUBLIC
   UMS_SHARED_DIR="${UMS_SHARED_DIR}" UMS_TEST_TMP_DIR="${UMS_TEST_TMP_DIR}")
 
-# Per-test time limit. Sanitizer builds run the end-to-end tests (whole rendered flights) 5-20x
-# slower: estimate_extrinsic and estimate_td went past 600 s under ASan+UBSan on the shared
+# Per-test time limit. Sanitizer builds run the end-to-end tests (whole rendered flights) several
+# times slower: estimate_extrinsic and estimate_td went past 600 s under ASan+UBSan on the shared
 # 2-core machine (docs/robustness.md, "Sanitizers").
 if(UMS_SANITIZE)
   set(UMS_TEST_TIMEOUT_S 3600 CACHE STRING "ctest time limit per test (s)")
