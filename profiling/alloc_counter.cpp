@@ -26,6 +26,7 @@ thread_local std::uint64_t t_bytes = 0;
 thread_local std::uint64_t t_deallocations = 0;
 std::atomic<std::uint64_t> g_allocations{0};
 
+#if UMS_ALLOC_HOOKS
 inline void count_alloc(std::size_t size) {
   ++t_allocations;
   t_bytes += size;
@@ -35,6 +36,7 @@ inline void count_alloc(std::size_t size) {
 inline void count_free(const void* ptr) {
   if (ptr != nullptr) ++t_deallocations;
 }
+#endif
 
 }  // namespace
 

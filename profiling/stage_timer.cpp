@@ -37,7 +37,7 @@ std::size_t StageTimes::samples(Stage stage, double* out, std::size_t capacity) 
   const std::size_t kept = static_cast<std::size_t>(std::min<std::uint64_t>(s.count, kWindow));
   const std::size_t n = std::min(kept, capacity);
   const std::uint64_t first = s.count - kept;
-  for (std::size_t i = 0; i < n; ++i) out[i] = s.ring[(first + i) % kWindow];
+  for (std::size_t i = 0; i < n; ++i) out[i] = static_cast<double>(s.ring[(first + i) % kWindow]);
   return n;
 }
 

@@ -96,7 +96,6 @@ class LoopSession final : public PoseSink {
   std::uint64_t live_poses_ = 0;
   std::uint64_t map_poses_ = 0;
   std::string write_final_map();
-  std::size_t startup_bytes_ = 0;
   double spread_s_ = 0.0;
 };
 

@@ -109,9 +109,11 @@ void MavlinkOutput::send_odometry(const mavlink::BodyState& s) {
 }
 
 void MavlinkOutput::send_vision(const mavlink::Odometry& m) {
-  const Eigen::Quaterniond q_L_v(m.q[0], m.q[1], m.q[2], m.q[3]);
+  const Eigen::Quaterniond q_L_v(static_cast<double>(m.q[0]), static_cast<double>(m.q[1]),
+                                 static_cast<double>(m.q[2]), static_cast<double>(m.q[3]));
   const Eigen::Vector3d rpy = euler_zyx(q_L_v);
-  const Eigen::Vector3d v_L = q_L_v * Eigen::Vector3d(m.vx, m.vy, m.vz);
+  const Eigen::Vector3d v_L =
+      q_L_v * Eigen::Vector3d(static_cast<double>(m.vx), static_cast<double>(m.vy), static_cast<double>(m.vz));
   mavlink::VisionPositionEstimate vpe;
   vpe.usec = m.time_usec;
   vpe.x = m.x;

@@ -37,6 +37,7 @@ class RecordingLink final : public hal::ByteLink {
   }
   std::size_t receive(std::uint8_t* out, std::size_t cap) override {
     const std::size_t n = std::min(cap, incoming.size());
+    if (n == 0) return 0;  // incoming.data() may be null: memcpy from null is undefined even for 0 bytes (UBSan)
     std::memcpy(out, incoming.data(), n);
     incoming.erase(incoming.begin(), incoming.begin() + static_cast<long>(n));
     return n;

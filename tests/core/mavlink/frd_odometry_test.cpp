@@ -43,7 +43,8 @@ struct Euler {
 };
 
 Euler euler_of(const Odometry& m) {
-  const double w = m.q[0], x = m.q[1], y = m.q[2], z = m.q[3];
+  const double w = static_cast<double>(m.q[0]), x = static_cast<double>(m.q[1]), y = static_cast<double>(m.q[2]),
+               z = static_cast<double>(m.q[3]);
   const double rad = 180.0 / M_PI;
   return {std::atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y)) * rad, std::asin(2 * (w * y - z * x)) * rad,
           std::atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z)) * rad};

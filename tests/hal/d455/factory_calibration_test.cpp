@@ -39,7 +39,8 @@ std::vector<std::uint8_t> coefficients_table() {
 std::vector<std::uint8_t> reply_with(const std::vector<std::uint8_t>& payload, std::int32_t echo = 0x15) {
   std::vector<std::uint8_t> r(1024, 0);
   put<std::int32_t>(&r, 0, echo);
-  std::memcpy(r.data() + 4, payload.data(), payload.size());
+  // An empty payload's data() may be null, and memcpy from null is undefined even for 0 bytes (UBSan).
+  if (!payload.empty()) std::memcpy(r.data() + 4, payload.data(), payload.size());
   put<std::uint32_t>(&r, 1020, static_cast<std::uint32_t>(4 + payload.size()));
   return r;
 }

@@ -82,8 +82,8 @@ TEST_CASE("street world: city blocks clear of the path, facades 5.5-8.5 m either
       for (const Box& b : w.boxes) nearest_m = std::min(nearest_m, distance_to_box_m(p.p_w_c, b));
       // Camera x is the car's right: horizontal rays to the left and right facades.
       const Eigen::Vector3d right = p.R_w_c.col(0);
-      const double r_m = cast(w, p.p_w_c, Eigen::Vector3d(right.x(), right.y(), 0.0)).t;
-      const double l_m = cast(w, p.p_w_c, Eigen::Vector3d(-right.x(), -right.y(), 0.0)).t;
+      const double r_m = static_cast<double>(cast(w, p.p_w_c, Eigen::Vector3d(right.x(), right.y(), 0.0)).t);
+      const double l_m = static_cast<double>(cast(w, p.p_w_c, Eigen::Vector3d(-right.x(), -right.y(), 0.0)).t);
       if (r_m >= 5.5 && r_m <= 8.5 && l_m >= 5.5 && l_m <= 8.5) ++both_sides;
       // Straight up: the textureless sky, 40 m above the road.
       const SurfaceHit up = cast(w, p.p_w_c, Eigen::Vector3d::UnitZ());
