@@ -1,6 +1,7 @@
 #include "hal/replay/yaml_file.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -94,10 +95,33 @@ int flow_depth_after(const std::string& text, std::size_t begin, std::size_t end
   return depth;
 }
 
-// A content line at depth 0 that the readers accept: "key:..." or "- item".
-bool key_or_item(const std::string& text, std::size_t first, std::size_t end) {
-  const bool item = text[first] == '-' && (first + 1 >= end || text[first + 1] == ' ' || text[first + 1] == '\r');
-  return item || text.find(':', first) < end;
+enum class LineKind { kOther, kItem, kKeyEmpty, kKeyValue };
+
+bool key_char(char c) {
+  return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '_' || c == '.' || c == '-' || c == '/';
+}
+
+// A content line at depth 0: "- item", or "key:" with a key the readers use (a name, or quoted),
+// the ':' followed by a blank or the end of the line; anything else is kOther.
+LineKind line_kind(const std::string& text, std::size_t first, std::size_t end) {
+  if (text[first] == '-' && (first + 1 >= end || text[first + 1] == ' ' || text[first + 1] == '\r')) {
+    return LineKind::kItem;
+  }
+  std::size_t i = first;
+  if (text[i] == '"' || text[i] == '\'') {
+    const std::size_t close = text.find(text[i], i + 1);
+    if (close >= end) return LineKind::kOther;
+    i = close + 1;
+  } else {
+    if (!(std::isalpha(static_cast<unsigned char>(text[i])) != 0 || text[i] == '_')) return LineKind::kOther;
+    while (i < end && key_char(text[i])) ++i;
+  }
+  while (i < end && text[i] == ' ') ++i;
+  if (i >= end || text[i] != ':') return LineKind::kOther;
+  ++i;
+  if (i < end && text[i] != ' ' && text[i] != '\t' && text[i] != '\r') return LineKind::kOther;
+  const std::size_t rest = text.find_first_not_of(" \t\r", i);
+  return rest >= end || text[rest] == '#' ? LineKind::kKeyEmpty : LineKind::kKeyValue;
 }
 
 // "---" or "..." alone on its line (a comment may follow). With content after it, the line is
@@ -134,9 +158,16 @@ std::size_t walk_yaml_lines(const std::string& text, OnLine on_line) {
 
 std::size_t yaml_first_stray_line(const std::string& text) {
   std::size_t stray = 0;
+  LineKind previous = LineKind::kKeyEmpty;  // the root map's
   walk_yaml_lines(text, [&](std::size_t line, std::size_t first, std::size_t end, int depth) {
-    if (depth == 0 && !key_or_item(text, first, end)) stray = line;
-    return stray == 0;
+    if (depth > 0) return true;
+    const LineKind kind = line_kind(text, first, end);
+    // An item continues a sequence, or starts one under a key without a value.
+    const bool ok = kind == LineKind::kItem ? previous == LineKind::kItem || previous == LineKind::kKeyEmpty
+                                            : kind != LineKind::kOther;
+    if (!ok) stray = line;
+    previous = kind;
+    return ok;
   });
   return stray;
 }
