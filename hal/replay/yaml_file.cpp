@@ -159,14 +159,22 @@ std::size_t walk_yaml_lines(const std::string& text, OnLine on_line) {
 std::size_t yaml_first_stray_line(const std::string& text) {
   std::size_t stray = 0;
   LineKind previous = LineKind::kKeyEmpty;  // the root map's
+  std::size_t previous_indent = 0, root_indent = std::string::npos;
   walk_yaml_lines(text, [&](std::size_t line, std::size_t first, std::size_t end, int depth) {
     if (depth > 0) return true;
+    const std::size_t indent = first - (text.rfind('\n', first) == std::string::npos ? 0 : text.rfind('\n', first) + 1);
+    if (root_indent == std::string::npos) root_indent = indent;
     const LineKind kind = line_kind(text, first, end);
-    // An item continues a sequence, or starts one under a key without a value.
-    const bool ok = kind == LineKind::kItem ? previous == LineKind::kItem || previous == LineKind::kKeyEmpty
-                                            : kind != LineKind::kOther;
+    // An item continues its sequence at the same indentation, or starts one under a key without
+    // a value (Kalibr puts it at the key's own indentation); nothing is left of the root.
+    bool ok = kind != LineKind::kOther && indent >= root_indent;
+    if (kind == LineKind::kItem) {
+      ok = ok && ((previous == LineKind::kItem && indent == previous_indent) ||
+                  (previous == LineKind::kKeyEmpty && indent >= previous_indent));
+    }
     if (!ok) stray = line;
     previous = kind;
+    previous_indent = indent;
     return ok;
   });
   return stray;
