@@ -27,11 +27,14 @@ bool yaml_root_is_map(const std::string& text);
 // never returns on " T:a\nb: -\n\f" (found by tests/fuzz/kalibr_fuzz).
 std::size_t yaml_first_control_byte(const std::string& text);
 
-// The 1-based number of the first content line, outside any flow collection ([...], {...}, which
-// may span lines), that is neither a "key:" line nor a "- item" (nor a directive, "---", "...",
-// blank or comment), or 0. Every file read here (EuRoC sensor.yaml, VINS-Fusion configs and
-// camodocal files, Kalibr) is made of such lines; a stray plain line is refused before OpenCV
-// parses, which never returns on "#\n u:[]\nx  -\ni" (found by tests/fuzz/kalibr_fuzz).
+// The 1-based number of the first content line outside the subset every reader here takes
+// (EuRoC sensor.yaml, VINS-Fusion configs and camodocal files, Kalibr), or 0. Outside flow
+// collections ([...], {...}, which may span lines) a content line is "key: ..." (a name or a
+// quoted key, the ':' followed by a blank) or "- item" (lined up with its sequence, which starts
+// under a key without a value), never left of the root's first key; every content line is ASCII
+// outside its comments. Checked before cv::FileStorage parses: OpenCV 4.6 never returns on
+// several texts outside it ("#\n u:[]\nx  -\ni", "...  - [0]" after a sequence, ...: found by
+// tests/fuzz/kalibr_fuzz and sensor_yaml_fuzz).
 std::size_t yaml_first_stray_line(const std::string& text);
 
 // The 1-based number of the line that opened a flow collection ('[' or '{') still open at the

@@ -95,6 +95,7 @@ TEST_CASE("YamlFile refuses a stray plain line, naming it, without hanging OpenC
   CHECK(yaml_first_stray_line("T:\n- [1, 2]\n- [3]\ns: \"x ] y\" # ]\nc:\n  U:\n  - [4]\n  - [5]\n...\n") == 0);
   CHECK(yaml_first_stray_line("T:\n- [1]\n  - [2]\n") == 3);  // items of one sequence line up
   CHECK(yaml_first_stray_line("  T:\n  - [1]\n-\n") == 3);    // nothing left of the root (kalibr_fuzz)
+  CHECK(yaml_first_stray_line("a: 1 # \xc2\xb5m\nb: \xbc\xbc[1]\n") == 2);  // ASCII outside comments
   CHECK(yaml_first_stray_line("a: [1,\n 2]\nb\n") == 3);
   CHECK(yaml_first_stray_line("a: \"[\"\nplain text\n") == 2);  // a bracket in quotes opens nothing
   CHECK(yaml_first_stray_line("a: 1 # [\nb c\n") == 2);        // nor one in a comment
