@@ -47,7 +47,8 @@ build="$root/build/$kind"
 mkdir -p "$root/build"
 launcher=()
 if command -v ccache >/dev/null; then
-  launcher=(-DCMAKE_C_COMPILER_LAUNCHER=ccache -DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
+  # ccache does not cache files built against a precompiled header: one or the other.
+  launcher=(-DCMAKE_C_COMPILER_LAUNCHER=ccache -DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DUMS_PCH=OFF)
 fi
 started=$(date +%s)
 echo "== $kind: configure and build ($build, -fsanitize=$sanitize)"

@@ -4,6 +4,9 @@
 # under qemu-user (the solver alone when OpenCV for armhf cannot be installed). host and all also
 # run the fuzz smoke: every libFuzzer harness over its committed seeds (scripts/fuzz.sh all seeds),
 # so the harnesses keep building and the seeds keep passing.
+# `all` (what CI runs) leaves the [slow] tests out of the armhf suite: whole-sequence replays and
+# rendered flights, over 10 s each under qemu, which host and aarch64 run (cmake/UmsTesting.cmake);
+# `scripts/test.sh armhf` runs every test there.
 # Usage: scripts/test.sh [host|aarch64|armhf|all]   (default all)
 set -euo pipefail
 
@@ -29,13 +32,13 @@ run_suite() {  # name build_dir [cmake args...]
 
 mkdir -p "$root/build"
 if [[ "$want" == "host" || "$want" == "all" ]]; then
-  run_suite host "$root/build/host" || status=1
+  run_suite host "$root/build/host" -DUMS_TEST_SPEC= || status=1
   echo "== fuzz smoke: each harness over its seeds (scripts/fuzz.sh all ${UMS_FUZZ_SMOKE_S:-seeds})"
   "$root/scripts/fuzz.sh" all "${UMS_FUZZ_SMOKE_S:-seeds}" || status=1
 fi
 if [[ "$want" == "aarch64" || "$want" == "all" ]]; then
   run_suite aarch64 "$root/build/aarch64" \
-    -DCMAKE_TOOLCHAIN_FILE="$root/toolchains/aarch64-linux-gnu.cmake" -DUMS_BUILD_BENCHMARKS=OFF \
+    -DCMAKE_TOOLCHAIN_FILE="$root/toolchains/aarch64-linux-gnu.cmake" -DUMS_BUILD_BENCHMARKS=OFF -DUMS_TEST_SPEC= \
     || status=1
 fi
 if [[ "$want" == "all" && -x "$root/build/host/board/host/umsvins" && -x "$root/build/aarch64/board/host/umsvins" ]]; then
@@ -43,15 +46,17 @@ if [[ "$want" == "all" && -x "$root/build/host/board/host/umsvins" && -x "$root/
   "$root/scripts/determinism.sh" "$root/build/host" "$root/build/aarch64" || status=1
 fi
 if [[ "$want" == "armhf" || "$want" == "all" ]]; then
+  armhf_spec=""
+  [[ "$want" == "all" ]] && armhf_spec="~[.]~[slow]"  # not hidden, not slow
   if dpkg-query -W -f='${Status}' libopencv-imgproc-dev:armhf 2>/dev/null | grep -q "install ok installed"; then
     run_suite armhf "$root/build/armhf" \
       -DCMAKE_TOOLCHAIN_FILE="$root/toolchains/arm-linux-gnueabihf.cmake" -DUMS_BUILD_BENCHMARKS=OFF \
-      || status=1
+      "-DUMS_TEST_SPEC=$armhf_spec" || status=1
   else
     echo "== armhf: no OpenCV for armhf (scripts/deps.sh said why): the solver only"
     run_suite armhf-solver "$root/build/armhf-solver" \
       -DCMAKE_TOOLCHAIN_FILE="$root/toolchains/arm-linux-gnueabihf.cmake" -DUMS_SOLVER_ONLY=ON \
-      || status=1
+      "-DUMS_TEST_SPEC=$armhf_spec" || status=1
   fi
 fi
 exit $status

@@ -114,7 +114,7 @@ TEST_CASE("umsvins: usage errors exit 64 and name the mistake", "[cli]") {
   CHECK(r.err.find("unknown kind 'imu-hole'") != std::string::npos);
 }
 
-TEST_CASE("umsvins replay --fault: the faults reach the pipeline and are counted in stats.json", "[cli][real]") {
+TEST_CASE("umsvins replay --fault: the faults reach the pipeline and are counted in stats.json", "[cli][real][slow]") {
   const std::string dir = test::make_temp_dir("cli_fault");
   const Run r = run({"replay", test::euroc_micro_dir(), "--out", dir, "--duration", "3.0", "--quiet", "--deterministic",
                      "--fault", "imu-gap:1:0.3,frame-gap:2:0.5"});
@@ -153,7 +153,7 @@ TEST_CASE("umsvins record without a D455 fails cleanly and says why", "[cli]") {
 }
 
 TEST_CASE("umsvins live --source replay: the threaded path sees what the single-threaded replay sees",
-          "[cli][real]") {
+          "[cli][real][slow]") {
   const std::string replay_dir = test::make_temp_dir("cli_live_replay");
   const std::string live_dir = test::make_temp_dir("cli_live_live");
   const Run replay = run({"replay", test::euroc_micro_dir(), "--out", replay_dir, "--duration", "2.0",
@@ -289,7 +289,7 @@ TEST_CASE("umsvins simulate writes a dataset that replay reads, eval scores an e
 
 // The photo style needs real images: without --texture-dataset it fails (exit 1) naming the flag,
 // before writing anything; an unknown style is a usage error.
-TEST_CASE("umsvins simulate --style photo without --texture-dataset fails naming the flag", "[cli][sim]") {
+TEST_CASE("umsvins simulate --style photo without --texture-dataset fails naming the flag", "[cli][sim][slow]") {
   const std::string dir = test::make_temp_dir("cli_sim_photo");
   const Run r = run({"simulate", "--style", "photo", "--duration", "1", "--out", dir + "/ds", "--quiet"});
   CHECK(r.code == kExitFailure);
@@ -358,7 +358,7 @@ TEST_CASE("umsvins replay runs the front end on real EuRoC frames and writes sta
   CHECK(mean_3d >= 100.0);
 }
 
-TEST_CASE("umsvins replay --deterministic: two replays write the same trajectory to the byte", "[cli][sim]") {
+TEST_CASE("umsvins replay --deterministic: two replays write the same trajectory to the byte", "[cli][sim][slow]") {
   // The cross-architecture check (scripts/determinism.sh) compares host and aarch64 runs; this is
   // its precondition on one machine: no wall clock, no uninitialised memory, no run-to-run state.
   const std::string dir = test::make_temp_dir("cli_deterministic");

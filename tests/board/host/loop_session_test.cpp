@@ -70,7 +70,7 @@ std::string micro_vocabulary(const std::string& dir) {
 
 }  // namespace
 
-TEST_CASE("replay --vocabulary: both map trajectories equal the odometry until a loop moves them", "[cli][loop]") {
+TEST_CASE("replay --vocabulary: both map trajectories equal the odometry until a loop moves them", "[cli][loop][slow]") {
   const std::string dir = test::make_temp_dir("loop_session");
   const std::string voc = micro_vocabulary(dir);
   std::string out, err;
@@ -107,7 +107,7 @@ TEST_CASE("replay --vocabulary: both map trajectories equal the odometry until a
 
 // --loop needs no file: the built-in vocabulary. Without --deterministic the loop work runs on its
 // own thread and a replay hands it every keyframe; with it, on the frame thread.
-TEST_CASE("replay --loop: the built-in vocabulary, the loop work on its own thread", "[cli][loop]") {
+TEST_CASE("replay --loop: the built-in vocabulary, the loop work on its own thread", "[cli][loop][slow]") {
   const std::string dir = test::make_temp_dir("loop_builtin");
   std::string out, err;
   REQUIRE(run({"replay", test::euroc_micro_dir(), "--loop", "--out", dir + "/thread", "--quiet"}, &out, &err) == kExitOk);
@@ -241,7 +241,7 @@ TEST_CASE("replay --load-map refuses corrupt, truncated, foreign and misplaced m
 namespace ums::cli {
 
 // The live app takes the same loop options: it finds itself in the saved map, as replay does.
-TEST_CASE("live --vocabulary --load-map: the board app is placed in a saved map", "[cli][loop]") {
+TEST_CASE("live --vocabulary --load-map: the board app is placed in a saved map", "[cli][loop][slow]") {
   const std::string dir = test::make_temp_dir("loop_live");
   const std::string voc = micro_vocabulary(dir);
   const std::string map = dir + "/micro.map";

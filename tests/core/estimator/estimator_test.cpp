@@ -131,7 +131,7 @@ TEST_CASE("estimator on the real EuRoC micro sequence at rest: initializes withi
   CHECK(run.stats.drops_residuals == 0);
 }
 
-TEST_CASE("estimator: skipping the stage comparison for a few 2D-left landmarks keeps every pose", "[estimator]") {
+TEST_CASE("estimator: skipping the stage comparison for a few 2D-left landmarks keeps every pose", "[estimator][slow]") {
   // The comparison restores the window and solves 3D + 2D-left from the same start when the two
   // stages agree, so skipping it gives the same poses to the bit wherever it would have agreed.
   // Round 2 without its wall-time bound, as replay --deterministic runs it: under qemu the bound
@@ -156,7 +156,7 @@ TEST_CASE("estimator: skipping the stage comparison for a few 2D-left landmarks 
   CHECK(skipped.steady_allocations == 0);
 }
 
-TEST_CASE("estimator: landmarks spread over the view still hold the rig at rest, allocating nothing", "[estimator]") {
+TEST_CASE("estimator: landmarks spread over the view still hold the rig at rest, allocating nothing", "[estimator][slow]") {
   ums::EstimatorOptions o;
   o.landmark_spread_px = 80.0;
   const MicroRun run = run_micro(o);
@@ -169,7 +169,7 @@ TEST_CASE("estimator: landmarks spread over the view still hold the rig at rest,
   CHECK(run.steady_allocations == 0);
 }
 
-TEST_CASE("estimator: every keyframe leaving the window reaches the keyframe outlet with its points", "[estimator]") {
+TEST_CASE("estimator: every keyframe leaving the window reaches the keyframe outlet with its points", "[estimator][slow]") {
   const MicroRun run = run_micro();
   const auto& kept = run.keyframes.kept;
   INFO(kept.size() << " keyframes emitted, " << run.stats.marginalized_old << " marginalized as the oldest");

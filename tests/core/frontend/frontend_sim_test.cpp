@@ -266,7 +266,7 @@ TrackErrors measure_tracks(const SimSequence& s) {
 }  // namespace
 
 // Acceptance (synthetic): tracks agree with the projected ground truth to a fraction of a pixel.
-TEST_CASE("Simulator (V1_01 cut, EuRoC rig, noise on): tracks agree with the projected ground truth", "[frontend][sim]") {
+TEST_CASE("Simulator (V1_01 cut, EuRoC rig, noise on): tracks agree with the projected ground truth", "[frontend][sim][slow]") {
   const TrackErrors e = measure_tracks(make_sequence(false, kFrames));
   CHECK(e.n_points >= 150);
   CHECK(e.n_left >= 1000);
@@ -306,7 +306,7 @@ TEST_CASE("Simulator, photo style (V1_01 cut): tracks agree with the projected g
 
 // Acceptance (synthetic): the same cut in the textureless world (walls and ceiling flat grey)
 // has a higher 2D share (2D-left + 2D-right over all features) than the nominal world.
-TEST_CASE("Simulator (V1_01 cut): the 2D share rises in the textureless world", "[frontend][sim]") {
+TEST_CASE("Simulator (V1_01 cut): the 2D share rises in the textureless world", "[frontend][sim][slow]") {
   double share[2] = {0, 0}, mean_3d[2] = {0, 0}, mean_all[2] = {0, 0};
   for (int tl = 0; tl < 2; ++tl) {
     const SimSequence s = make_sequence(tl == 1, kFramesTexture);

@@ -33,7 +33,7 @@ ums::RigCalibration synthetic_rig(int w, int h, double f) {
 
 }  // namespace
 
-TEST_CASE("EuRoC micro (real, at rest): >= 100 3D features, tracks >= 20 frames, epipolar-consistent stereo, no allocation") {
+TEST_CASE("EuRoC micro (real, at rest): >= 100 3D features, tracks >= 20 frames, epipolar-consistent stereo, no allocation", "[slow]") {
   const ums::test::EurocPairs data = ums::test::load_euroc_micro();
   REQUIRE(data.size() == 95);
   ums::FrontendOptions opt;  // defaults
@@ -329,7 +329,7 @@ TEST_CASE("sub-stage times (EuRoC micro): non-negative, sum within the call's wa
   if (ums::alloc_counter_available()) CHECK(allocs_after_first == 0);
 }
 
-TEST_CASE("detect_min_missing: no detection until that many of max_cnt features are missing (EuRoC micro)") {
+TEST_CASE("detect_min_missing: no detection until that many of max_cnt features are missing (EuRoC micro)", "[slow]") {
   const ums::test::EurocPairs data = ums::test::load_euroc_micro();
   static ums::FrameFeatures out;
   // Frames after the first that ran a detection, and how many features were missing before it.

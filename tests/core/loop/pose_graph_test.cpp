@@ -296,7 +296,7 @@ TEST_CASE("PoseGraph4Dof: 2000 nodes and 500 loops converge within the CG cap, a
   CHECK(after.max_yaw_deg < 1e-6);
 }
 
-TEST_CASE("PoseGraph4Dof: worst-case time at 2000 nodes, every LM step running the full CG cap", "[loop]") {
+TEST_CASE("PoseGraph4Dof: worst-case time at 2000 nodes, every LM step running the full CG cap", "[loop][slow]") {
   const auto truth = circle_truth(200, 10);
   const auto init = drifted(truth, 0.02 * kDeg, 1.005);
   PoseGraphOptions options;
@@ -320,7 +320,7 @@ TEST_CASE("PoseGraph4Dof: worst-case time at 2000 nodes, every LM step running t
   CHECK(s.cg_iterations <= options.max_iterations * options.max_cg_iterations);
 }
 
-TEST_CASE("PoseGraph4Dof: block-Jacobi PCG reaches the same solution with >5x (measured ~14x) the CG iterations", "[loop]") {
+TEST_CASE("PoseGraph4Dof: block-Jacobi PCG reaches the same solution with >5x (measured ~14x) the CG iterations", "[loop][slow]") {
   const auto truth = circle_truth(200, 10);
   const auto init = drifted(truth, 0.02 * kDeg, 1.005);
   PoseGraphOptions options;

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <initializer_list>
 #include <limits>
 #include <memory>
 #include <vector>
@@ -117,15 +118,17 @@ struct ImuCorruption {
   double value = 0.0;
 };
 
-void corrupt(const ImuCorruption& c, std::size_t index, ums::ImuSample* imu) {
-  if (index < c.first || index - c.first >= c.count) return;
-  imu->gyro_rad_s.setConstant(c.value);
-  imu->accel_m_s2.setConstant(c.value);
+void corrupt(std::initializer_list<ImuCorruption> corruptions, std::size_t index, ums::ImuSample* imu) {
+  for (const ImuCorruption& c : corruptions) {
+    if (index < c.first || index - c.first >= c.count) continue;
+    imu->gyro_rad_s.setConstant(c.value);
+    imu->accel_m_s2.setConstant(c.value);
+  }
 }
 
 // The micro sequence through a VioPipeline (rig td_s set to td_s); allocations counted from the
 // 50th frame on.
-Run run_micro(double td_s, bool frontend_only = false, const ImuCorruption& corruption = ImuCorruption()) {
+Run run_micro(double td_s, bool frontend_only = false, std::initializer_list<ImuCorruption> corruption = {}) {
   ums::hal::EurocReader reader;
   reader.open(ums::test::euroc_micro_dir(), ums::hal::EurocReaderOptions());
   ums::RigCalibration rig = reader.calibration();
@@ -199,37 +202,36 @@ TEST_CASE("pipeline on the EuRoC micro sequence: a pose per frame with one, keyf
   CHECK(run.steady_allocations == 0);
 }
 
-// Samples that are no reading (NaN, and 1e9 on every axis: a glitching driver) never reach the
-// estimator: they are dropped and counted, not ramped in by the slew limiter. The vehicle rests
-// in the micro sequence, so 0.1 s of dropped samples must leave the poses where the clean run
-// has them.
-TEST_CASE("pipeline: NaN and huge IMU samples are dropped and counted, the poses stay put", "[pipeline]") {
+// Samples that are no reading (NaN, 1e9 on every axis as from a glitching driver, -Inf) never
+// reach the estimator: they are dropped and counted, not ramped in by the slew limiter. The vehicle
+// rests in the micro sequence, so 0.1 s of each, at 1.5, 2.5 and 3.5 s, must leave the poses where
+// the clean run has them. (One run with all three: each run is 20 s under qemu.)
+TEST_CASE("pipeline: NaN and huge IMU samples are dropped and counted, the poses stay put", "[pipeline][slow]") {
   const Run clean = run_micro(0.0);
-  for (const double value : {std::nan(""), 1e9, -std::numeric_limits<double>::infinity()}) {
-    CAPTURE(value);
-    const Run bad = run_micro(0.0, false, ImuCorruption{400, 20, value});  // 2.0-2.1 s, mid-run
-    CHECK(bad.counters.imu_implausible == 20);
-    CHECK(bad.counters.imu_samples == clean.counters.imu_samples - 20);
-    CHECK(bad.counters.saturated_samples == clean.counters.saturated_samples);
-    REQUIRE(bad.records.size() == clean.records.size());
-    double worst_m = 0.0;
-    for (std::size_t i = 0; i < bad.records.size(); ++i) {
-      const ums::EstimatorOutput& a = bad.records[i].estimate;
-      const ums::EstimatorOutput& b = clean.records[i].estimate;
-      if (!a.valid || !b.valid) continue;
-      REQUIRE(a.p_w_b.allFinite());
-      worst_m = std::max(worst_m, (a.p_w_b - b.p_w_b).norm());
-    }
-    CHECK(worst_m < 0.005);  // m
-    CHECK(bad.steady_allocations == 0);
+  const Run bad = run_micro(0.0, false,
+                            {ImuCorruption{300, 20, std::nan("")}, ImuCorruption{500, 20, 1e9},
+                             ImuCorruption{700, 20, -std::numeric_limits<double>::infinity()}});
+  CHECK(bad.counters.imu_implausible == 60);
+  CHECK(bad.counters.imu_samples == clean.counters.imu_samples - 60);
+  CHECK(bad.counters.saturated_samples == clean.counters.saturated_samples);
+  REQUIRE(bad.records.size() == clean.records.size());
+  double worst_m = 0.0;
+  for (std::size_t i = 0; i < bad.records.size(); ++i) {
+    const ums::EstimatorOutput& a = bad.records[i].estimate;
+    const ums::EstimatorOutput& b = clean.records[i].estimate;
+    if (!a.valid || !b.valid) continue;
+    REQUIRE(a.p_w_b.allFinite());
+    worst_m = std::max(worst_m, (a.p_w_b - b.p_w_b).norm());
   }
+  CHECK(worst_m < 0.005);  // m
+  CHECK(bad.steady_allocations == 0);
 }
 
 // What the configuration did not plan for (issue 20 item 4): pairs larger than the calibration
 // (1280x800 into a 752x480 pipeline) are refused and counted; a 2 kHz IMU (10x EuRoC's) fits the
 // preintegration without a drop; white-noise images (corners everywhere, far more than max_cnt)
 // give at most max_cnt features. Memory stays fixed: no allocation once running.
-TEST_CASE("pipeline under overload: oversized pairs refused, a 2 kHz IMU, corners everywhere", "[pipeline]") {
+TEST_CASE("pipeline under overload: oversized pairs refused, a 2 kHz IMU, corners everywhere", "[pipeline][slow]") {
   ums::hal::EurocReader reader;
   reader.open(ums::test::euroc_micro_dir(), ums::hal::EurocReaderOptions());
   auto pipeline = make_pipeline(reader.calibration(), false);
@@ -242,7 +244,7 @@ TEST_CASE("pipeline under overload: oversized pairs refused, a 2 kHz IMU, corner
   std::vector<std::uint8_t> big(1280 * 800, 128), noise[2] = {std::vector<std::uint8_t>(752 * 480),
                                                               std::vector<std::uint8_t>(752 * 480)};
   std::uint32_t state = 7;
-  constexpr int kFrames = 60, kBig = 10, kImuPerFrame = 100;  // 20 Hz pairs, 2 kHz IMU
+  constexpr int kFrames = 40, kBig = 10, kImuPerFrame = 100;  // 20 Hz pairs, 2 kHz IMU
   std::uint64_t steady_allocations = 0;
   int most_features = 0;
   for (int k = 0; k < kFrames; ++k) {
@@ -269,7 +271,7 @@ TEST_CASE("pipeline under overload: oversized pairs refused, a 2 kHz IMU, corner
     const int n = static_cast<int>(pipeline->features().features.size());
     CHECK(n <= ums::FrontendOptions().max_cnt);
     if (k >= kBig) most_features = std::max(most_features, n);
-    if (k >= 30) steady_allocations += scope.allocations();
+    if (k >= 25) steady_allocations += scope.allocations();
   }
   pipeline->flush();
   const ums::VioPipelineCounters c = pipeline->counters();
@@ -291,7 +293,7 @@ TEST_CASE("pipeline under overload: oversized pairs refused, a 2 kHz IMU, corner
 
 // The estimator names its frames (EstimatorOutput::frame_id): the keyframe outlet passes the name
 // on, and names never repeat.
-TEST_CASE("pipeline: keyframe images arrive with increasing FrameIds", "[pipeline]") {
+TEST_CASE("pipeline: keyframe images arrive with increasing FrameIds", "[pipeline][slow]") {
   const Run run = run_micro(0.0);
   REQUIRE(run.out.keyframes.size() >= 2);
   for (std::size_t i = 0; i < run.out.keyframes.size(); ++i) {
@@ -303,7 +305,7 @@ TEST_CASE("pipeline: keyframe images arrive with increasing FrameIds", "[pipelin
 // A camera 4 ms behind the IMU: every frame goes on at its stamp + td, once the IMU has reached
 // that time (core/pipeline/time_aligner.hpp); the last frame of the recording, which the IMU
 // never reaches, goes on at the end (flush). The IMU-rate poses stay at the samples' stamps.
-TEST_CASE("pipeline: rig td_s puts every frame at its stamp + td, after the IMU up to it", "[pipeline]") {
+TEST_CASE("pipeline: rig td_s puts every frame at its stamp + td, after the IMU up to it", "[pipeline][slow]") {
   constexpr double kTdS = 0.004;  // s, camera clock behind the IMU by 4 ms
   constexpr std::int64_t kTdNs = 4'000'000;
   const Run base = run_micro(0.0);
@@ -328,7 +330,7 @@ TEST_CASE("pipeline: rig td_s puts every frame at its stamp + td, after the IMU 
   CHECK(shifted.steady_allocations == 0);
 }
 
-TEST_CASE("pipeline: frontend_only runs the front end and produces no pose and no keyframe", "[pipeline]") {
+TEST_CASE("pipeline: frontend_only runs the front end and produces no pose and no keyframe", "[pipeline][slow]") {
   const Run run = run_micro(0.0, true);
   CHECK(run.counters.frames == 95);
   CHECK(run.counters.keyframes == 0);

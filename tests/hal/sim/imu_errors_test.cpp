@@ -141,7 +141,7 @@ TEST_CASE("imu errors: scale factor and misalignment measured back from constant
   }
 }
 
-TEST_CASE("imu errors: the vibration sits in the aliased rotor band with the configured RMS", "[sim][imu_errors]") {
+TEST_CASE("imu errors: the vibration sits in the aliased rotor band with the configured RMS", "[sim][imu_errors][slow]") {
   const ImuErrorOptions o = only_vibration();  // 130 +- 10 Hz, 0.5 m/s^2, 0.02 rad/s
   const ImuErrorDraw d = draw_imu_errors(o, 3);
   struct Case {

@@ -89,7 +89,7 @@ Moments moments(const std::vector<std::uint8_t>& img, int W, int H) {
 // The photo renderer casts the same rays through the same world as the procedural one: with its
 // effects neutral (uniform light 1, no vignetting, no noise, one sub-exposure) both give the
 // same pixels, boxes included, so the per-tile box culling hides nothing.
-TEST_CASE("photo renderer: same image as the procedural renderer with the effects neutral", "[sim][photo_renderer]") {
+TEST_CASE("photo renderer: same image as the procedural renderer with the effects neutral", "[sim][photo_renderer][slow]") {
   const ums::RigCalibration rig = rig_preset(CameraPreset::kEuroc);
   std::vector<Eigen::Vector3d> path;
   for (int k = 0; k < 40; ++k) path.emplace_back(1.5 * std::cos(0.15 * k), 1.5 * std::sin(0.15 * k), 1.2);

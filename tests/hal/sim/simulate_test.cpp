@@ -170,7 +170,7 @@ TEST_CASE("scenario prefixes: standstill rests, uniform-start is unexcited, impu
 // Every scenario generates from a cut of every shared trajectory (test-sized: 8 s cuts, IMU and
 // ground truth complete, images for V101 only, 1 pair); the full-length command is in
 // docs/simulator.md. Checks the files, and the scenario's mark on the first images.
-TEST_CASE("every scenario generates from every shared trajectory", "[sim][scenario][files]") {
+TEST_CASE("every scenario generates from every shared trajectory", "[sim][scenario][files][slow]") {
   const std::string root = ums::test::make_temp_dir("sim_scenarios");
   for (const char* name : kTrajectories) {
     for (Scenario sc : kAllScenarios) {
@@ -215,7 +215,7 @@ TEST_CASE("every scenario generates from every shared trajectory", "[sim][scenar
   }
 }
 
-TEST_CASE("same seed gives the same dataset and the right camera is blank during the dropout", "[sim][scenario]") {
+TEST_CASE("same seed gives the same dataset and the right camera is blank during the dropout", "[sim][scenario][slow]") {
   const std::string root = ums::test::make_temp_dir("sim_determinism");
   SimOptions o;
   o.scenario = Scenario::kRightDropout;  // built-in trajectory
@@ -571,7 +571,7 @@ SimOptions small_run(const std::string& out_dir) {
 
 }  // namespace
 
-TEST_CASE("planted time offset: images stamped td early (t_imu = t_cam + td), the same pixels", "[sim][sensors]") {
+TEST_CASE("planted time offset: images stamped td early (t_imu = t_cam + td), the same pixels", "[sim][sensors][slow]") {
   const std::string root = ums::test::make_temp_dir("sim_td");
   SimOptions o = small_run(root + "/zero");
   std::string err;

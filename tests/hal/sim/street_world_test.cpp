@@ -96,7 +96,7 @@ TEST_CASE("street world: city blocks clear of the path, facades 5.5-8.5 m either
   }
 }
 
-TEST_CASE("street world: the D455 camera sees texture all along car-turn, none in the sky", "[sim][car]") {
+TEST_CASE("street world: the D455 camera sees texture all along car-turn, none in the sky", "[sim][car][slow]") {
   const std::vector<CarPose> poses = car_camera_poses(CarRoute::kTurn, 0.05);
   StreetOptions o;
   o.texture_size = 256;  // test-sized textures
