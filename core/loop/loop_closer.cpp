@@ -76,6 +76,7 @@ void LoopOptions::validate() const {
   need(odom_sigma_yaw_deg > 0.0 && odom_sigma_yaw_deg_per_m >= 0.0, "odom_sigma_yaw_deg", odom_sigma_yaw_deg);
   need(loop_interval_s >= 0.0, "loop_interval_s", loop_interval_s);
   need(blind_sigma_scale >= 1.0, "blind_sigma_scale", blind_sigma_scale);
+  need(blind_drift_time_s > 0.0, "blind_drift_time_s", blind_drift_time_s);
   need(loop_sigma_p_m > 0.0 && loop_sigma_yaw_deg > 0.0, "loop_sigma_p_m", loop_sigma_p_m);
   need(loop_sigma_fit_scale > 0.0, "loop_sigma_fit_scale", loop_sigma_fit_scale);
   need(max_loop_residual_sigma > 0.0, "max_loop_residual_sigma", max_loop_residual_sigma);
@@ -452,11 +453,31 @@ void LoopCloser::place_session(const KeyframeRecord& q, const Eigen::Isometry3d&
   }
 }
 
+LoopCloser::OdometrySigmas LoopCloser::odometry_sigmas(const KeyframeRecord& a, const KeyframeRecord& b, double d_m,
+                                                       std::int64_t* blind_since_ns) const {
+  double p_scale = 1.0, yaw_scale = 1.0;
+  if (std::min(a.features.size(), b.features.size()) < static_cast<std::size_t>(options_.min_features)) {
+    if (*blind_since_ns < 0) *blind_since_ns = a.t_ns;
+    // Dead reckoning's position error grows by its velocity error, which grows with the time since
+    // the images went (accelerometer bias, tilt): the later in the stretch, the more of the loop's
+    // correction an edge takes (variance in proportion to the edge's expected drift). The yaw
+    // drifts at the gyro bias's constant rate.
+    const double since_s = 1e-9 * static_cast<double>((a.t_ns - *blind_since_ns) + (b.t_ns - a.t_ns) / 2);
+    yaw_scale = options_.blind_sigma_scale;
+    p_scale = yaw_scale * std::sqrt(1.0 + std::max(0.0, since_s) / options_.blind_drift_time_s);
+  } else {
+    *blind_since_ns = -1;
+  }
+  return {p_scale * (options_.odom_sigma_p_m + options_.odom_sigma_p_per_m * d_m),
+          yaw_scale * (options_.odom_sigma_yaw_deg + options_.odom_sigma_yaw_deg_per_m * d_m) / kDegPerRad};
+}
+
 bool LoopCloser::solve_graph() {
   const auto start = std::chrono::steady_clock::now();
   graph_->clear();
   std::int32_t prev_node = -1;
   std::uint32_t prev_slot = 0;
+  std::int64_t blind_since_ns = -1;  // start of the blind stretch the chain is in, or -1
   for (std::int32_t s = db_->oldest(); s >= 0; s = db_->at(s).next) {
     const KeyframeRecord& r = db_->at(s);
     node_of_[s] = -1;
@@ -467,12 +488,10 @@ bool LoopCloser::solve_graph() {
     slot_of_[node] = static_cast<std::uint32_t>(s);
     if (prev_node >= 0 && db_->at(prev_slot).session == r.session) {
       const Eigen::Isometry3d T_i_j = db_->at(prev_slot).T_odom_b.inverse() * r.T_odom_b;
-      const double d_m = T_i_j.translation().norm();
-      const std::size_t seen = std::min(db_->at(prev_slot).features.size(), r.features.size());
-      const double scale = seen < static_cast<std::size_t>(options_.min_features) ? options_.blind_sigma_scale : 1.0;
-      graph_->add_edge(prev_node, node, T_i_j, scale * (options_.odom_sigma_p_m + options_.odom_sigma_p_per_m * d_m),
-                       scale * (options_.odom_sigma_yaw_deg + options_.odom_sigma_yaw_deg_per_m * d_m) / kDegPerRad,
-                       EdgeKind::kOdometry);
+      const OdometrySigmas sig = odometry_sigmas(db_->at(prev_slot), r, T_i_j.translation().norm(), &blind_since_ns);
+      graph_->add_edge(prev_node, node, T_i_j, sig.p_m, sig.yaw_rad, EdgeKind::kOdometry);
+    } else {
+      blind_since_ns = -1;
     }
     prev_node = node;
     prev_slot = static_cast<std::uint32_t>(s);

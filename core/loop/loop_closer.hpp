@@ -67,6 +67,11 @@ struct LoopOptions {
   // the IMU (vision lost: dark, blackout): its sigmas times this, so the first loop afterwards
   // moves the map to where the images say instead of trusting the dead reckoning.
   double blind_sigma_scale = 100.0;
+  // ... and its position sigma grows as sqrt(1 + t / blind_drift_time_s), t the time from the start
+  // of the blind stretch to the edge: the dead reckoning's velocity error, and so the drift per
+  // edge, grows from what VIO left (~0.01-0.02 m/s) by the accelerometer bias and tilt error
+  // (~0.01-0.02 m/s^2), doubling in about a second.
+  double blind_drift_time_s = 1.0;
   // A loop edge's sigmas: the verifier's 1-sigma of the measured pose (from its fit's information
   // and residual variance; V102: errors against ground truth 1.6 sigma on average, as a 3D
   // Gaussian's norm should be) times loop_sigma_fit_scale, at least the floors. Loops read from a
@@ -229,6 +234,13 @@ class LoopCloser final : public KeyframeSink, public KeyframeImageSink, public M
   bool passes_gates(std::uint32_t q_slot, std::uint32_t c_slot, const LoopGeometry& g);
   bool close_loop(std::uint32_t q_slot, std::uint32_t c_slot, const LoopGeometry& g);
   bool solve_graph();
+  struct OdometrySigmas {
+    double p_m, yaw_rad;
+  };
+  // The sigmas of the odometry edge a -> b (consecutive, one session, d_m apart); blind_since_ns
+  // carries the start of the blind stretch along the chain (-1: not in one).
+  OdometrySigmas odometry_sigmas(const KeyframeRecord& a, const KeyframeRecord& b, double d_m,
+                                 std::int64_t* blind_since_ns) const;
   // Sets T_map_odom (yaw and translation only) so that q sits at T_map_q, and marks q's session
   // placed or not, its keyframes' map poses with it.
   void place_session(const KeyframeRecord& q, const Eigen::Isometry3d& T_map_q, bool placed);
