@@ -115,6 +115,8 @@ void Estimator::set_keyframe_sink(KeyframeSink* sink) { marginalizer_->set_keyfr
 // ---------------------------------------------------------------------------------------------
 // IMU
 
+void Estimator::note_lost_imu_time(std::int64_t lost_ns) { imu_->note_lost_time(lost_ns); }
+
 void Estimator::add_imu(const ImuSample& in, bool saturated) {
   const ImuBuffer::Added a = imu_->add(in, saturated);
   if (!a.accepted) {
@@ -202,12 +204,16 @@ StandstillResult Estimator::begin_frame(const FrameFeatures& ff, WindowFrame& f)
 // hole, which claims the IMU's precision for motion it never measured. Its covariance gets the
 // variance of that motion, modelled as a random walk changing at the rate the samples changed in
 // the second before the hole: vision then carries the window through, and a short hole during
-// slow motion keeps most of the IMU's weight.
+// slow motion keeps most of the IMU's weight. And the hole may be no time at all: a clock that
+// jumped forward (both streams' stamps at once) leaves the same hole, and holding the sample
+// across it claims the hole's whole length of travel and turn at the current rates. Which it
+// was only the images can tell, so that motion is the factor's sigma too.
 void Estimator::widen_imu_factor_over_hole(WindowFrame& f) {
   ++stats_.imu_gap_frames;
+  const double hole_s = imu_->interval_hole_s();
+  f.pre.add_unmodelled_motion(motion_claimed_over_hole(f, hole_s));
   double q_gyro = 0.0, q_accel = 0.0;
   if (!imu_->motion_density_before_hole(&q_gyro, &q_accel)) return;
-  const double hole_s = imu_->interval_hole_s();
   // A held sample drifts from the motion as a random walk, W(s) with variance q s; its integral
   // over the hole has variance q L^3 / 3, whose share in this interval is q s^2 ds. The factors
   // are independent, so each takes its share of the whole (its own marginal, q s ds^2, would
@@ -215,6 +221,19 @@ void Estimator::widen_imu_factor_over_hole(WindowFrame& f) {
   const double age_s = imu_->hole_age_s();
   const double k = age_s * age_s * hole_s;
   f.pre.add_unmodelled_motion({q_gyro * k, q_accel * k, 0.5 * hole_s});
+}
+
+// The travel and turn the held sample claims over hole_s of this interval: the speed of the
+// newest window frame, the interval's mean rotation rate. Nothing before the window has a speed.
+Preintegration::UnmodelledMotion Estimator::motion_claimed_over_hole(const WindowFrame& f, double hole_s) const {
+  Preintegration::UnmodelledMotion u;
+  const double dt_s = f.pre.dt_s();
+  if (!inertial_window() || window_->empty() || dt_s <= 0.0) return u;
+  const double travel_m = state::v(window_->newest().sb).norm() * hole_s;
+  const double turn_rad = Eigen::AngleAxisd(f.pre.gamma()).angle() * hole_s / dt_s;
+  u.var_p_m2 = travel_m * travel_m;
+  u.var_theta_rad2 = turn_rad * turn_rad;
+  return u;
 }
 
 void Estimator::initial_state(WindowFrame& f, const StandstillResult& rest) {

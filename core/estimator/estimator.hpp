@@ -109,6 +109,9 @@ class Estimator {
   // One IMU sample (time-ordered, after the saturation element; saturated: the element clipped
   // it, the previous sample is held instead). Allocates nothing.
   void add_imu(const ImuSample& sample, bool saturated = false);
+  // Time passed after the last sample that no stamp shows (samples dropped because the clock
+  // stepped back): the interval it falls in is widened as across a hole of that length.
+  void note_lost_imu_time(std::int64_t lost_ns);
   // One frame of features (stamp in the IMU clock: the pipeline applies the time offset);
   // writes the optimized pose at this frame. Allocates nothing.
   void add_frame(const FrameFeatures& features, EstimatorOutput* out, EstimatorTiming* timing);
@@ -138,6 +141,7 @@ class Estimator {
   bool out_of_order(const FrameFeatures& ff, EstimatorOutput* out);
   StandstillResult begin_frame(const FrameFeatures& ff, WindowFrame& f);
   void widen_imu_factor_over_hole(WindowFrame& f);
+  Preintegration::UnmodelledMotion motion_claimed_over_hole(const WindowFrame& f, double hole_s) const;
   void initial_state(WindowFrame& f, const StandstillResult& rest);
   Eigen::Matrix3d c0_from_c1() const;  // right camera to left, from the current extrinsics
   // The cameras' rotation and rates from the gyro between the window frame before f and f (for

@@ -75,6 +75,15 @@ void ImuBuffer::note_hole(std::int64_t last_sample_ns, std::int64_t end_ns) {
   hole_ns_ += end_ns - std::max(last_sample_ns, interval_t0_ns_);
 }
 
+void ImuBuffer::note_lost_time(std::int64_t lost_ns) {
+  if (!have_ || lost_ns <= 0) return;
+  hole_start_ns_ = last_.t_ns;
+  hole_end_ns_ = last_.t_ns + lost_ns;
+  if (!open_) return;
+  gap_ = true;
+  hole_ns_ += lost_ns;
+}
+
 bool ImuBuffer::motion_density_before_hole(double* q_gyro, double* q_accel) const {
   constexpr std::int64_t kSpanNs = 1000000000;  // the second before the hole
   double sum_w = 0.0, sum_a = 0.0;

@@ -43,6 +43,9 @@ class ImuBuffer {
   // The open interval spans a hole (between its samples, or from its last one to the stamp that
   // closes it): holding a sample across it would integrate motion the IMU never measured.
   bool interval_has_gap() const { return gap_; }
+  // lost_ns of time passed after the last sample that the stamps do not show (the clock stepped
+  // back): a hole of that length, between the last sample and the next.
+  void note_lost_time(std::int64_t lost_ns);
   // How much of the open interval lies in holes (s), and how long the hole had lasted at the end
   // of that part (s): a sample held across a hole drifts from the motion the longer it is held.
   double interval_hole_s() const { return 1e-9 * static_cast<double>(hole_ns_); }

@@ -74,6 +74,7 @@ void Preintegration::add_unmodelled_motion(const UnmodelledMotion& u) {
   unmodelled_.var_theta_rad2 += std::max(0.0, u.var_theta_rad2);
   unmodelled_.var_v_m2_s2 += std::max(0.0, u.var_v_m2_s2);
   unmodelled_.lever_s = std::max(unmodelled_.lever_s, u.lever_s);
+  unmodelled_.var_p_m2 += std::max(0.0, u.var_p_m2);
 }
 
 Status Preintegration::add(const ImuSample& sample) {
@@ -232,7 +233,7 @@ Status Preintegration::sqrt_information(Matrix15* U) const {
     const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
     P.block<3, 3>(kTheta, kTheta) += unmodelled_.var_theta_rad2 * I;
     P.block<3, 3>(kV, kV) += var_v * I;
-    P.block<3, 3>(kP, kP) += l * l * var_v * I;
+    P.block<3, 3>(kP, kP) += (l * l * var_v + unmodelled_.var_p_m2) * I;
     P.block<3, 3>(kP, kV) += l * var_v * I;
     P.block<3, 3>(kV, kP) += l * var_v * I;
   }

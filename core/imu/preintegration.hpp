@@ -68,17 +68,21 @@ class Preintegration {
                  Eigen::Vector3d* beta, Eigen::Quaterniond* gamma) const;
 
   // Motion the IMU did not measure (samples lost inside the interval): its variance is added to
-  // the deltas' covariance, rotation var_theta_rad2 per axis, velocity var_v_m2_s2 per axis, and
-  // the position through the velocity error held for lever_s. Kept until reset() (also over
-  // repropagations). Without it a factor across a hole claims the IMU's full precision.
+  // the deltas' covariance, rotation var_theta_rad2 per axis, velocity var_v_m2_s2 per axis, the
+  // position through the velocity error held for lever_s, and var_p_m2 per axis of position on
+  // its own. Kept until reset() (also over repropagations). Without it a factor across a hole
+  // claims the IMU's full precision.
   struct UnmodelledMotion {
     double var_theta_rad2 = 0.0;
     double var_v_m2_s2 = 0.0;
     double lever_s = 0.0;  // s, position error = velocity error * lever_s
+    double var_p_m2 = 0.0;
   };
   void add_unmodelled_motion(const UnmodelledMotion& u);
   const UnmodelledMotion& unmodelled_motion() const { return unmodelled_; }
-  bool has_unmodelled_motion() const { return unmodelled_.var_theta_rad2 > 0.0 || unmodelled_.var_v_m2_s2 > 0.0; }
+  bool has_unmodelled_motion() const {
+    return unmodelled_.var_theta_rad2 > 0.0 || unmodelled_.var_v_m2_s2 > 0.0 || unmodelled_.var_p_m2 > 0.0;
+  }
   // Upper Cholesky factor U of the inverse covariance (U^T U = P^-1): r_whitened = U r.
   // kSingular if the covariance is not positive definite (e.g. fewer than two samples).
   Status sqrt_information(Matrix15* U) const;

@@ -40,15 +40,21 @@ void VioPipeline::process_imu(const ImuSample& sample) {
   }
   if (sample.t_ns <= last_imu_t_ns_) {
     ++counters_.imu_out_of_order;  // a source bug: count, never pass on
+    // Stamped before the last sample, not a copy of it: time passed that the stamps do not show.
+    if (sample.t_ns < last_imu_t_ns_) ++stepped_back_run_;
     return;
   }
   ImuSample clipped;
   const bool saturated = saturation_.apply(sample, &clipped);
   if (saturated) ++counters_.saturated_samples;
   integrate_hint(sample, clipped);
+  const std::int64_t lost_ns = stepped_back_run_ >= 2 ? stepped_back_run_ * imu_period_ns_ : 0;
+  if (last_imu_t_ns_ >= 0 && stepped_back_run_ == 0) imu_period_ns_ = std::min(sample.t_ns - last_imu_t_ns_, kMaxImuPeriodNs);
+  stepped_back_run_ = 0;
   last_imu_t_ns_ = sample.t_ns;
   ++counters_.imu_samples;
   if (estimator_ == nullptr) return;
+  if (lost_ns > 0) estimator_->note_lost_imu_time(lost_ns);
   estimator_->add_imu(clipped, saturated);
   NavState nav;
   if (pose_sink_ != nullptr && counters_.frames > 0 && estimator_->imu_rate_state(&nav)) {

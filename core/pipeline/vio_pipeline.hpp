@@ -141,6 +141,13 @@ class VioPipeline final : public MeasurementSink {
   VioPipelineCounters counters_;
   VioFrameRecord record_;
   std::int64_t last_imu_t_ns_ = -1;
+  // A clock stepped back: the samples stamped before the last one are dropped, but real time
+  // passed with them, one sample period each (the last step, at most kMaxImuPeriodNs), which the
+  // estimator's next interval is told about. A single such sample is a pair delivered out of
+  // order (its time lies inside the stamps already seen): a run of two at least.
+  static constexpr std::int64_t kMaxImuPeriodNs = 50'000'000;
+  std::int64_t imu_period_ns_ = 0;
+  std::int64_t stepped_back_run_ = 0;
   // Gyro-integrated rotation of the body since the previous frame: the front end's KLT hint.
   Eigen::Quaterniond q_bprev_bcurr_ = Eigen::Quaterniond::Identity();
   Eigen::Quaterniond q_b_c0_ = Eigen::Quaterniond::Identity();

@@ -47,6 +47,26 @@ TEST_CASE("IMU buffer: samples lost inside an interval mark it", "[estimator][im
   CHECK_FALSE(buf.interval_has_gap());
 }
 
+// The clock stepped back by 0.5 s: the samples stamped before the last one were dropped upstream,
+// but 0.5 s passed. The stamps show a 5 ms step; the interval is marked as across a 0.5 s hole.
+TEST_CASE("IMU buffer: time lost to a clock stepping back marks the interval as a hole that long", "[estimator][imu]") {
+  ImuBuffer buf(50 * kMs);
+  auto pre = std::make_unique<ums::Preintegration>();
+  buf.add(at(0), false);
+  buf.open_interval(pre.get(), 0, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero());
+  buf.add(at(5 * kMs), false);
+  buf.note_lost_time(500 * kMs);
+  CHECK_FALSE(buf.add(at(10 * kMs), false).after_gap);  // the stamps alone show no hole
+  REQUIRE(buf.close_interval(50 * kMs));
+  CHECK(buf.interval_has_gap());
+  CHECK(buf.interval_hole_s() == Approx(0.5));
+  CHECK(buf.hole_age_s() == Approx(0.5));
+  buf.open_interval(pre.get(), 50 * kMs, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero());
+  CHECK_FALSE(buf.interval_has_gap());
+  buf.note_lost_time(0);  // nothing lost: nothing marked
+  CHECK_FALSE(buf.interval_has_gap());
+}
+
 TEST_CASE("IMU buffer: a frame inside a hole, at either end of its interval, marks it", "[estimator][imu]") {
   ImuBuffer buf(50 * kMs);
   auto pre = std::make_unique<ums::Preintegration>();

@@ -291,6 +291,53 @@ TEST_CASE("pipeline under overload: oversized pairs refused, a 2 kHz IMU, corner
   CHECK(steady_allocations == 0);
 }
 
+// A clock stepping back (issue 20's clock-jump fault): the samples stamped before the last one are
+// dropped and counted, and the time that passed with them, which no stamp shows, reaches the
+// estimator as a hole in the interval it falls in (imu_gap_frames). A pair delivered in swapped
+// order is one such sample and no lost time; a copy of the last stamp neither.
+TEST_CASE("pipeline: a clock stepping back drops the samples and marks the interval as a hole", "[pipeline]") {
+  ums::hal::EurocReader reader;
+  reader.open(ums::test::euroc_micro_dir(), ums::hal::EurocReaderOptions());
+  const auto run = [&](int back_samples) {
+    auto pipeline = make_pipeline(reader.calibration(), false);
+    std::vector<std::uint8_t> gray(752 * 480, 128);
+    std::int64_t t_ns = 1'000'000'000LL;
+    for (int k = 0; k < 12; ++k) {
+      for (int i = 0; i < 10; ++i) {
+        ums::ImuSample s;
+        s.t_ns = (t_ns += 5'000'000LL);
+        s.accel_m_s2 = Eigen::Vector3d(0.0, 0.0, 9.81);
+        pipeline->on_imu(s);
+        if (k == 6 && i == 4) {
+          // The clock steps back by back_samples periods: the samples that follow repeat the
+          // stamps already seen until they pass the last one.
+          t_ns -= back_samples * 5'000'000LL;
+          for (int b = 0; b < back_samples; ++b) {
+            s.t_ns = (t_ns += 5'000'000LL) - 5'000'000LL;
+            pipeline->on_imu(s);
+          }
+        }
+      }
+      ums::StereoFrame frame;
+      frame.t_ns = t_ns;
+      frame.left = frame.right = ums::ImageView{gray.data(), 752, 480, 752};
+      pipeline->on_stereo(frame);
+    }
+    pipeline->flush();
+    REQUIRE(pipeline->estimator() != nullptr);
+    return std::make_pair(pipeline->counters().imu_out_of_order, pipeline->estimator()->stats().imu_gap_frames);
+  };
+  const auto none = run(0);
+  CHECK(none.first == 0);
+  CHECK(none.second == 0);
+  const auto swapped = run(1);  // one sample stamped one period back: a swapped pair
+  CHECK(swapped.first == 1);
+  CHECK(swapped.second == 0);
+  const auto stepped = run(60);  // 0.3 s back
+  CHECK(stepped.first == 60);
+  CHECK(stepped.second == 1);
+}
+
 // The estimator names its frames (EstimatorOutput::frame_id): the keyframe outlet passes the name
 // on, and names never repeat.
 TEST_CASE("pipeline: keyframe images arrive with increasing FrameIds", "[pipeline][slow]") {
