@@ -26,11 +26,12 @@ else()
   set(UMS_TEST_TIMEOUT_S 600 CACHE STRING "ctest time limit per test (s)")
 endif()
 
-# Which TEST_CASEs ctest registers (a Catch2 test spec; empty: all). scripts/test.sh all gives the
-# 32-bit armhf suite "~[.]~[slow]" (hidden ones stay out too): the [slow] tests replay whole sequences or render flights, over 10 s
-# each under qemu (1,190 s of that suite's 1,479 s); host and aarch64 run them, and the armhf suite
-# keeps its own end-to-end replays (the micro sequence through the pipeline and the estimator,
-# saving and loading a map), so 32-bit code still runs a flight.
+# Which TEST_CASEs ctest registers (a Catch2 test spec; empty: all). scripts/test.sh all (CI) gives
+# the two qemu suites "~[.]~[slow]" (hidden ones stay out too): the [slow] tests replay whole
+# sequences or render flights, over 10 s each under qemu (on armhf 1,190 s of the suite's 1,479 s,
+# on aarch64 most of its 1,172 s); the host runs them, and the qemu suites keep their own
+# end-to-end replays (the micro sequence through the pipeline and the estimator, saving and loading
+# a map). scripts/test.sh full runs them under qemu too.
 set(UMS_TEST_SPEC "" CACHE STRING "Catch2 test spec of the registered tests (empty: all), e.g. ~[slow]")
 
 function(ums_add_test name)

@@ -1,18 +1,23 @@
 #!/usr/bin/env bash
-# Builds and runs every test: on the host, then cross-built for aarch64 under qemu-user (plus the
+# Builds and runs the tests: on the host, then cross-built for aarch64 under qemu-user (plus the
 # host-vs-aarch64 trajectory check, scripts/determinism.sh), then cross-built for 32-bit armhf
 # under qemu-user (the solver alone when OpenCV for armhf cannot be installed). host and all also
 # run the fuzz smoke: every libFuzzer harness over its committed seeds (scripts/fuzz.sh all seeds),
 # so the harnesses keep building and the seeds keep passing.
-# `all` (what CI runs) leaves the [slow] tests out of the armhf suite: whole-sequence replays and
-# rendered flights, over 10 s each under qemu, which host and aarch64 run (cmake/UmsTesting.cmake);
-# `scripts/test.sh armhf` runs every test there.
-# Usage: scripts/test.sh [host|aarch64|armhf|all]   (default all)
+# `all` (what CI runs, 40 min on 2 cores) leaves the [slow] tests out of the two qemu suites:
+# whole-sequence replays and rendered flights, over 10 s each under qemu (cmake/UmsTesting.cmake);
+# the host runs every one of them, and the determinism check replays a flight on aarch64 that must
+# match the host's to the byte. `full` is `all` with every test under qemu too (the release check,
+# about an hour); `aarch64` and `armhf` alone also run every test of their suite.
+# Usage: scripts/test.sh [host|aarch64|armhf|all|full]   (default all)
 set -euo pipefail
 
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 want="${1:-all}"
-case "$want" in host|aarch64|armhf|all) ;; *) echo "usage: scripts/test.sh [host|aarch64|armhf|all]" >&2; exit 64 ;; esac
+case "$want" in host|aarch64|armhf|all|full) ;; *) echo "usage: scripts/test.sh [host|aarch64|armhf|all|full]" >&2; exit 64 ;; esac
+emulated_spec=""
+[[ "$want" == "all" ]] && emulated_spec="~[.]~[slow]"  # not hidden, not slow
+[[ "$want" == "full" ]] && want=all
 
 "$root/scripts/deps.sh" "$want"
 
@@ -38,25 +43,23 @@ if [[ "$want" == "host" || "$want" == "all" ]]; then
 fi
 if [[ "$want" == "aarch64" || "$want" == "all" ]]; then
   run_suite aarch64 "$root/build/aarch64" \
-    -DCMAKE_TOOLCHAIN_FILE="$root/toolchains/aarch64-linux-gnu.cmake" -DUMS_BUILD_BENCHMARKS=OFF -DUMS_TEST_SPEC= \
-    || status=1
+    -DCMAKE_TOOLCHAIN_FILE="$root/toolchains/aarch64-linux-gnu.cmake" -DUMS_BUILD_BENCHMARKS=OFF \
+    "-DUMS_TEST_SPEC=$emulated_spec" || status=1
 fi
 if [[ "$want" == "all" && -x "$root/build/host/board/host/umsvins" && -x "$root/build/aarch64/board/host/umsvins" ]]; then
   echo "== determinism: host vs aarch64 (qemu) on a 6 s flight"
   "$root/scripts/determinism.sh" "$root/build/host" "$root/build/aarch64" || status=1
 fi
 if [[ "$want" == "armhf" || "$want" == "all" ]]; then
-  armhf_spec=""
-  [[ "$want" == "all" ]] && armhf_spec="~[.]~[slow]"  # not hidden, not slow
   if dpkg-query -W -f='${Status}' libopencv-imgproc-dev:armhf 2>/dev/null | grep -q "install ok installed"; then
     run_suite armhf "$root/build/armhf" \
       -DCMAKE_TOOLCHAIN_FILE="$root/toolchains/arm-linux-gnueabihf.cmake" -DUMS_BUILD_BENCHMARKS=OFF \
-      "-DUMS_TEST_SPEC=$armhf_spec" || status=1
+      "-DUMS_TEST_SPEC=$emulated_spec" || status=1
   else
     echo "== armhf: no OpenCV for armhf (scripts/deps.sh said why): the solver only"
     run_suite armhf-solver "$root/build/armhf-solver" \
       -DCMAKE_TOOLCHAIN_FILE="$root/toolchains/arm-linux-gnueabihf.cmake" -DUMS_SOLVER_ONLY=ON \
-      "-DUMS_TEST_SPEC=$armhf_spec" || status=1
+      "-DUMS_TEST_SPEC=$emulated_spec" || status=1
   fi
 fi
 exit $status
