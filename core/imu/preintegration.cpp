@@ -112,56 +112,74 @@ void Preintegration::step(const ImuSample& s0, const ImuSample& s1) {
   // F = I except the blocks below (rows/cols alpha, theta, beta, ba, bg):
   //   alpha: [I, F_at, I dt, F_aba, F_abg]   theta: [0, F_tt, 0, 0, G]
   //   beta:  [0, F_vt, I,    F_vba, F_vbg]   ba, bg: identity rows.
-  const Matrix3d F_tt = R1.transpose() * R0;           // Exp(dphi)^T
-  const Matrix3d G = -so3::right_jacobian(dphi) * dt;  // d dtheta1 / d(dbg or gyro noise)
+  StepTransition f;
+  f.dt_s = dt;
+  f.F_tt = R1.transpose() * R0;           // Exp(dphi)^T
+  f.G = -so3::right_jacobian(dphi) * dt;  // d dtheta1 / d(dbg or gyro noise)
   const Matrix3d A1 = -R1 * so3::hat(a1);
-  const Matrix3d dacc_dth = 0.5 * (-R0 * so3::hat(a0) + A1 * F_tt);
+  const Matrix3d dacc_dth = 0.5 * (-R0 * so3::hat(a0) + A1 * f.F_tt);
   const Matrix3d dacc_dba = -0.5 * (R0 + R1);
-  const Matrix3d M = A1 * G;  // d acc / d(dbg), times 2
-  const Matrix3d dacc_dbg = 0.5 * M;
-  const Matrix3d F_at = 0.5 * dt2 * dacc_dth, F_aba = 0.5 * dt2 * dacc_dba;
-  const Matrix3d F_abg = 0.5 * dt2 * dacc_dbg;
-  const Matrix3d F_vt = dt * dacc_dth, F_vba = dt * dacc_dba, F_vbg = dt * dacc_dbg;
+  f.M = A1 * f.G;  // d acc / d(dbg), times 2
+  const Matrix3d dacc_dbg = 0.5 * f.M;
+  f.F_at = 0.5 * dt2 * dacc_dth;
+  f.F_aba = 0.5 * dt2 * dacc_dba;
+  f.F_abg = 0.5 * dt2 * dacc_dbg;
+  f.F_vt = dt * dacc_dth;
+  f.F_vba = dt * dacc_dba;
+  f.F_vbg = dt * dacc_dbg;
 
-  // P <- F P F^T using the block structure (about a third of the dense cost).
+  propagate_covariance(f);
+  add_step_noise(f);
+  propagate_bias_jacobian(f);
+}
+
+// P <- F P F^T using the block structure (about a third of the dense cost).
+void Preintegration::propagate_covariance(const StepTransition& f) {
+  const double dt = f.dt_s;
   Matrix15& P = covariance_;
   Matrix15 FP;
   FP.middleRows<3>(kP).noalias() = P.middleRows<3>(kP) + dt * P.middleRows<3>(kV);
-  FP.middleRows<3>(kP).noalias() += F_at * P.middleRows<3>(kTheta);
-  FP.middleRows<3>(kP).noalias() += F_aba * P.middleRows<3>(kBa);
-  FP.middleRows<3>(kP).noalias() += F_abg * P.middleRows<3>(kBg);
-  FP.middleRows<3>(kTheta).noalias() = F_tt * P.middleRows<3>(kTheta);
-  FP.middleRows<3>(kTheta).noalias() += G * P.middleRows<3>(kBg);
+  FP.middleRows<3>(kP).noalias() += f.F_at * P.middleRows<3>(kTheta);
+  FP.middleRows<3>(kP).noalias() += f.F_aba * P.middleRows<3>(kBa);
+  FP.middleRows<3>(kP).noalias() += f.F_abg * P.middleRows<3>(kBg);
+  FP.middleRows<3>(kTheta).noalias() = f.F_tt * P.middleRows<3>(kTheta);
+  FP.middleRows<3>(kTheta).noalias() += f.G * P.middleRows<3>(kBg);
   FP.middleRows<3>(kV) = P.middleRows<3>(kV);
-  FP.middleRows<3>(kV).noalias() += F_vt * P.middleRows<3>(kTheta);
-  FP.middleRows<3>(kV).noalias() += F_vba * P.middleRows<3>(kBa);
-  FP.middleRows<3>(kV).noalias() += F_vbg * P.middleRows<3>(kBg);
+  FP.middleRows<3>(kV).noalias() += f.F_vt * P.middleRows<3>(kTheta);
+  FP.middleRows<3>(kV).noalias() += f.F_vba * P.middleRows<3>(kBa);
+  FP.middleRows<3>(kV).noalias() += f.F_vbg * P.middleRows<3>(kBg);
   FP.middleRows<6>(kBa) = P.middleRows<6>(kBa);
   P.middleCols<3>(kP).noalias() = FP.middleCols<3>(kP) + dt * FP.middleCols<3>(kV);
-  P.middleCols<3>(kP).noalias() += FP.middleCols<3>(kTheta) * F_at.transpose();
-  P.middleCols<3>(kP).noalias() += FP.middleCols<3>(kBa) * F_aba.transpose();
-  P.middleCols<3>(kP).noalias() += FP.middleCols<3>(kBg) * F_abg.transpose();
-  P.middleCols<3>(kTheta).noalias() = FP.middleCols<3>(kTheta) * F_tt.transpose();
-  P.middleCols<3>(kTheta).noalias() += FP.middleCols<3>(kBg) * G.transpose();
+  P.middleCols<3>(kP).noalias() += FP.middleCols<3>(kTheta) * f.F_at.transpose();
+  P.middleCols<3>(kP).noalias() += FP.middleCols<3>(kBa) * f.F_aba.transpose();
+  P.middleCols<3>(kP).noalias() += FP.middleCols<3>(kBg) * f.F_abg.transpose();
+  P.middleCols<3>(kTheta).noalias() = FP.middleCols<3>(kTheta) * f.F_tt.transpose();
+  P.middleCols<3>(kTheta).noalias() += FP.middleCols<3>(kBg) * f.G.transpose();
   P.middleCols<3>(kV) = FP.middleCols<3>(kV);
-  P.middleCols<3>(kV).noalias() += FP.middleCols<3>(kTheta) * F_vt.transpose();
-  P.middleCols<3>(kV).noalias() += FP.middleCols<3>(kBa) * F_vba.transpose();
-  P.middleCols<3>(kV).noalias() += FP.middleCols<3>(kBg) * F_vbg.transpose();
+  P.middleCols<3>(kV).noalias() += FP.middleCols<3>(kTheta) * f.F_vt.transpose();
+  P.middleCols<3>(kV).noalias() += FP.middleCols<3>(kBa) * f.F_vba.transpose();
+  P.middleCols<3>(kV).noalias() += FP.middleCols<3>(kBg) * f.F_vbg.transpose();
   P.middleCols<6>(kBa) = FP.middleCols<6>(kBa);
+}
 
-  // Noise. The midpoint uses the noise of both end samples, which every step shares with its
-  // neighbour; treating them as independent halves the variance, so each end sample gets
-  // 2 sigma^2/dt and the accumulated rotation variance is the continuous sigma_g^2 * T.
-  // Inputs n_a0, n_a1 (var_a each) and n_g = (n_g0 + n_g1)/2 (var_g) enter as
-  //   dalpha += dt^2/4 (R0 n_a0 + R1 n_a1 + M n_g),  dtheta += G n_g,
-  //   dbeta  += dt/2   (R0 n_a0 + R1 n_a1 + M n_g);   R R^T = I gives the closed form below.
+// Noise. The midpoint uses the noise of both end samples, which every step shares with its
+// neighbour; treating them as independent halves the variance, so each end sample gets
+// 2 sigma^2/dt and the accumulated rotation variance is the continuous sigma_g^2 * T.
+// Inputs n_a0, n_a1 (var_a each) and n_g = (n_g0 + n_g1)/2 (var_g) enter as
+//   dalpha += dt^2/4 (R0 n_a0 + R1 n_a1 + M n_g),  dtheta += G n_g,
+//   dbeta  += dt/2   (R0 n_a0 + R1 n_a1 + M n_g);   R R^T = I gives the closed form below.
+void Preintegration::add_step_noise(const StepTransition& f) {
+  using Eigen::Matrix3d;
+  const double dt = f.dt_s;
+  const double dt2 = dt * dt;
+  Matrix15& P = covariance_;
   const ImuNoise& n = options_.noise;
   const double var_a = 2.0 * n.accel_noise_density * n.accel_noise_density / dt;
   const double var_g = n.gyro_noise_density * n.gyro_noise_density / dt;
   const double ca = 0.25 * dt2, cv = 0.5 * dt;
-  const Matrix3d MMt = var_g * M * M.transpose();
-  const Matrix3d GGt = var_g * G * G.transpose();
-  const Matrix3d MGt = var_g * M * G.transpose();
+  const Matrix3d MMt = var_g * f.M * f.M.transpose();
+  const Matrix3d GGt = var_g * f.G * f.G.transpose();
+  const Matrix3d MGt = var_g * f.M * f.G.transpose();
   const Matrix3d I3 = Matrix3d::Identity();
   const Matrix3d Q_aa = ca * ca * (2.0 * var_a * I3 + MMt);
   const Matrix3d Q_av = ca * cv * (2.0 * var_a * I3 + MMt);
@@ -177,21 +195,24 @@ void Preintegration::step(const ImuSample& s0, const ImuSample& s1) {
   P.block<3, 3>(kV, kV) += Q_vv;
   P.block<3, 3>(kBa, kBa).diagonal().array() += n.accel_random_walk * n.accel_random_walk * dt;
   P.block<3, 3>(kBg, kBg).diagonal().array() += n.gyro_random_walk * n.gyro_random_walk * dt;
+}
 
-  // Bias Jacobian: its ba/bg rows stay [I 0; 0 I], so only the alpha/theta/beta rows move.
+// Bias Jacobian: its ba/bg rows stay [I 0; 0 I], so only the alpha/theta/beta rows move.
+void Preintegration::propagate_bias_jacobian(const StepTransition& f) {
+  const double dt = f.dt_s;
   Eigen::Matrix<double, 3, 6> J_a = bias_jacobian_.middleRows<3>(kP);
   const Eigen::Matrix<double, 3, 6> J_t = bias_jacobian_.middleRows<3>(kTheta);
   Eigen::Matrix<double, 3, 6> J_v = bias_jacobian_.middleRows<3>(kV);
   J_a.noalias() += dt * J_v;
-  J_a.noalias() += F_at * J_t;
-  J_a.leftCols<3>() += F_aba;
-  J_a.rightCols<3>() += F_abg;
-  J_v.noalias() += F_vt * J_t;
-  J_v.leftCols<3>() += F_vba;
-  J_v.rightCols<3>() += F_vbg;
+  J_a.noalias() += f.F_at * J_t;
+  J_a.leftCols<3>() += f.F_aba;
+  J_a.rightCols<3>() += f.F_abg;
+  J_v.noalias() += f.F_vt * J_t;
+  J_v.leftCols<3>() += f.F_vba;
+  J_v.rightCols<3>() += f.F_vbg;
   bias_jacobian_.middleRows<3>(kP) = J_a;
-  bias_jacobian_.middleRows<3>(kTheta).noalias() = F_tt * J_t;
-  bias_jacobian_.middleRows<3>(kTheta).rightCols<3>() += G;
+  bias_jacobian_.middleRows<3>(kTheta).noalias() = f.F_tt * J_t;
+  bias_jacobian_.middleRows<3>(kTheta).rightCols<3>() += f.G;
   bias_jacobian_.middleRows<3>(kV) = J_v;
 }
 

@@ -110,8 +110,19 @@ class Preintegration {
   const PreintegrationOptions& options() const { return options_; }
 
  private:
+  // One midpoint step's error-state transition blocks (rows alpha, theta, beta; docs in step()).
+  struct StepTransition {
+    double dt_s;
+    Eigen::Matrix3d F_tt, G, M;          // theta<-theta, theta<-bg, 2 * acc<-bg
+    Eigen::Matrix3d F_at, F_aba, F_abg;  // alpha<-theta, alpha<-ba, alpha<-bg
+    Eigen::Matrix3d F_vt, F_vba, F_vbg;  // beta<-theta, beta<-ba, beta<-bg
+  };
+
   void clear_deltas();
   void step(const ImuSample& s0, const ImuSample& s1);
+  void propagate_covariance(const StepTransition& f);
+  void add_step_noise(const StepTransition& f);
+  void propagate_bias_jacobian(const StepTransition& f);
 
   PreintegrationOptions options_;
   FixedVector<ImuSample, capacity::kMaxImuSamplesBetweenFrames> samples_;
