@@ -8,7 +8,8 @@
 #         tsan_tests below) and only the executables they need.
 # Exits non-zero when a test fails or any sanitizer report shows up in the tests' output.
 # Environment: UMS_SAN_JOBS (build and ctest jobs, default nproc), UMS_SAN_NICE (nice level of
-# the build and the tests, default 0).
+# the build and the tests, default 0), UMS_SAN_TARGETS (asan: the targets to build, space-separated,
+# default all; a regex run needs only its test executables, plus umsvins for mavlink_decode).
 set -euo pipefail
 
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -29,7 +30,7 @@ case "$kind" in
   asan)
     sanitize="address,undefined"
     regex="${2:-}"
-    targets=(all)
+    read -r -a targets <<<"${UMS_SAN_TARGETS:-all}"
     ;;
   tsan)
     sanitize="thread"
