@@ -1,0 +1,190 @@
+#!/usr/bin/env bash
+# Instructions per frame of the aarch64 release binary (-mcpu=cortex-a72, scripts/build-arm.sh
+# rpi4), counted on the aarch64 code itself: qemu-user runs it with a TCG plugin
+# (scripts/qemu_insn_stages.c) that counts every guest instruction, and per stage those executed
+# while the stage's functions are active, callees included: the same functions as callgrind's
+# --toggle-collect in scripts/instructions.sh, so the two architectures compare stage by stage.
+#   front end  ums::Frontend::process
+#   back end   ums::Estimator::add_frame + ums::Estimator::add_imu
+#   pipeline   ums::cli::ReplayPipeline::on_* (front end + back end + the pipeline's bookkeeping;
+#              not the dataset's reading and PNG decoding)
+# Replays run with --deterministic: the solver's second round is bounded by iterations, not by the
+# wall clock, which qemu and valgrind slow down 20-50x (without it the count depends on the host).
+#
+# Usage: scripts/instructions_aarch64.sh [--x86] [dataset...]
+#   default datasets (rendered by the host build, scripts/demo.sh builds it): the V1_01 profile
+#   from 20 s for 3 s, seed 1, at 752x480 (scripts/instructions.sh's sequence) and with the D455
+#   camera at 848x480, and the real micro sequence ../shared/data/euroc/V1_01_easy_micro.
+#   --x86: also count each run with callgrind on the host build (scripts/instructions.sh), side by side.
+# Installs what it needs: the cross compiler and qemu-user (scripts/deps.sh aarch64), and qemu's
+# plugin header, taken from Debian's qemu source package (a deb-src entry is added when missing).
+set -euo pipefail
+
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+x86=0
+datasets=()
+for a in "$@"; do
+  case "$a" in
+    --x86) x86=1 ;;
+    -h|--help) sed -n '2,22p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -*) echo "instructions_aarch64: unknown option '$a' (--x86)" >&2; exit 64 ;;
+    *) [[ -d "$a/mav0" ]] || { echo "instructions_aarch64: $a: not a EuRoC dataset (no mav0/)" >&2; exit 64; }
+       datasets+=("$(cd "$a" && pwd)") ;;
+  esac
+done
+
+host_umsvins="$root/build/host/board/host/umsvins"
+plugin_dir="$root/build/qemu-plugin"
+arm_build="$root/build/arm-rpi4"
+arm_umsvins="$arm_build/board/host/umsvins"
+work="$(mktemp -d)"
+trap 'rm -rf "$work"' EXIT
+
+plugin_header() {  # qemu-plugin.h of the installed qemu's release, from Debian's source package
+  local header="$plugin_dir/include/qemu-plugin.h"
+  [[ -f "$header" ]] && return 0
+  local version
+  version=$(qemu-aarch64 --version | sed -n 's/^qemu-aarch64 version \([0-9]*\.[0-9]*\).*/\1/p')
+  echo "instructions_aarch64: fetching qemu-plugin.h (qemu $version source package)"
+  local sudo_cmd=()
+  [[ $(id -u) -ne 0 ]] && sudo_cmd=(sudo)
+  if ! apt-get source --download-only --print-uris qemu >/dev/null 2>&1; then
+    # A deb-src entry for the same mirror and suites as the system's deb entry.
+    "${sudo_cmd[@]}" tee /etc/apt/sources.list.d/ums-deb-src.sources >/dev/null <<'EOF'
+Types: deb-src
+URIs: http://deb.debian.org/debian
+Suites: bookworm bookworm-updates
+Components: main
+Signed-By: /usr/share/keyrings/debian-archive-keyring.gpg
+EOF
+    "${sudo_cmd[@]}" apt-get update -qq
+  fi
+  (cd "$work" && apt-get source --download-only -qq qemu >/dev/null 2>&1)
+  local orig
+  orig=$(ls "$work"/qemu_*.orig.tar.* | head -n 1)
+  tar -xf "$orig" -C "$work" --wildcards '*/include/qemu/qemu-plugin.h'
+  local got
+  got=$(find "$work" -path '*/include/qemu/qemu-plugin.h' | head -n 1)
+  [[ "$got" == *"qemu-$version"* ]] || echo "instructions_aarch64: warning: header from $got, qemu is $version" >&2
+  mkdir -p "$(dirname "$header")"
+  cp "$got" "$header"
+}
+
+build_plugin() {
+  local so="$plugin_dir/libqemu_insn_stages.so" src="$root/scripts/qemu_insn_stages.c"
+  if [[ ! -f "$so" || "$src" -nt "$so" ]]; then
+    gcc -O2 -Wall -Wextra -Werror -shared -fPIC -I"$plugin_dir/include" -o "$so" "$src"
+  fi
+  echo "$so"
+}
+
+self_test() {  # the plugin on a program whose counts are known: nested calls, a tail call
+  cat >"$work/selftest.c" <<'SRC'
+#define NOPS(n) __asm__ volatile(".rept " #n "\n nop\n .endr")
+__attribute__((noinline)) void leaf(void) { NOPS(500); }
+__attribute__((noinline)) void middle(void) { NOPS(200); leaf(); } /* ends in a tail call at -O2 */
+__attribute__((noinline)) void outer(void) { NOPS(1000); middle(); NOPS(100); }
+int main(void) { for (int i = 0; i < 10; ++i) outer(); leaf(); return 0; }
+SRC
+  aarch64-linux-gnu-gcc -O2 -o "$work/selftest" "$work/selftest.c"
+  local nm_out="$work/selftest.nm" args
+  aarch64-linux-gnu-nm -S --defined-only "$work/selftest" >"$nm_out"
+  args=$(awk '$4 == "main" {printf "main=0x%s", $1}' "$nm_out")
+  args+=$(awk '$4 ~ /^(leaf|middle|outer)$/ {printf ",fn=%s:0x%s:0x%s", $4, $1, $2}' "$nm_out")
+  qemu-aarch64 -L / -plugin "$1,out=$work/selftest.counts,$args" "$work/selftest"
+  # Per call: outer 1000 + 200 + 500 + 100 nops, middle 700, leaf 500, plus a few instructions of
+  # call, prologue and return each; leaf is entered 10 times by middle's tail call and once by main.
+  awk '$1 == "stage" { n[$2] = $3 } $1 == "entries" { e[$2] = $3 } $1 == "returns" { r[$2] = $3 }
+       END { ok = n["outer"] >= 18000 && n["outer"] <= 18300 && e["outer"] == 10 && r["outer"] == 10 &&
+                  n["middle"] >= 7000 && n["middle"] <= 7100 && e["middle"] == 10 && r["middle"] == 10 &&
+                  n["leaf"] >= 5500 && n["leaf"] <= 5560 && e["leaf"] == 11 && r["leaf"] == 11
+             exit ok ? 0 : 1 }' "$work/selftest.counts" \
+    || { echo "instructions_aarch64: the plugin's self-test failed:" >&2; cat "$work/selftest.counts" >&2; exit 1; }
+}
+
+symbol_args() {  # binary -> the plugin's main= and fn= arguments, from nm (C++ names demangled)
+  local nm_out="$work/nm.txt"
+  aarch64-linux-gnu-nm -C -S --defined-only "$1" >"$nm_out"
+  local main_addr
+  main_addr=$(awk '$4 == "main" {print $1}' "$nm_out")
+  [[ -n "$main_addr" ]] || { echo "instructions_aarch64: no 'main' in $1 (stripped?)" >&2; exit 1; }
+  printf 'main=0x%s' "$main_addr"
+  # Lines: address size type name...; the name starts at the 4th field.
+  awk '$3 ~ /^[tTwW]$/ {
+         name = $0; sub(/^[^ ]+ [^ ]+ [^ ]+ /, "", name)
+         label = ""
+         if (index(name, "ums::Frontend::process(") == 1) label = "frontend"
+         else if (index(name, "ums::Estimator::add_frame(") == 1 || index(name, "ums::Estimator::add_imu(") == 1) label = "backend"
+         else if (index(name, "ums::cli::ReplayPipeline::on_") == 1) label = "pipeline"
+         if (label != "") printf ",fn=%s:0x%s:0x%s", label, $1, $2
+       }' "$nm_out"
+}
+
+count_aarch64() {  # dataset tag -> "frames frontend backend pipeline process" (M per frame)
+  local ds="$1" tag="$2" args
+  args=$(symbol_args "$arm_umsvins")
+  qemu-aarch64 -L / -plugin "$plugin,out=$work/$tag.counts,$args" "$arm_umsvins" replay "$ds" \
+    --out "$work/$tag.arm" --quiet --deterministic >/dev/null
+  local c="$work/$tag.counts"
+  field() { awk -v k="$1" -v l="$2" '$1 == k && $2 == l {print $3}' "$c"; }
+  if [[ "$(field bias_found -)" != 1 || "$(field stack_overflows -)" != 0 ]]; then
+    echo "instructions_aarch64: $tag: the plugin did not find main or overflowed its call stack" >&2
+    cat "$c" >&2
+    exit 1
+  fi
+  for label in frontend backend pipeline; do
+    local entries returns
+    entries=$(field entries "$label")
+    returns=$(field returns "$label")
+    if [[ -z "$entries" || "$entries" -eq 0 || "$entries" != "$returns" ]]; then
+      echo "instructions_aarch64: $tag: stage '$label' not followed (entries $entries, returns $returns):" \
+        "the figures would be wrong" >&2
+      cat "$c" >&2
+      exit 1
+    fi
+  done
+  local frames
+  frames=$(grep -o '"frames": [0-9]*' "$work/$tag.arm/stats.json" | awk '{print $2}')
+  awk -v f="$frames" -v fe="$(field stage frontend)" -v be="$(field stage backend)" -v pipe="$(field stage pipeline)" \
+    -v all="$(field total -)" 'BEGIN { printf "%d %.1f %.1f %.1f %.1f\n", f, fe / f / 1e6, be / f / 1e6, pipe / f / 1e6, all / f / 1e6 }'
+}
+
+count_x86() {  # dataset -> "frames frontend backend pipeline process" (M per frame, callgrind)
+  "$root/scripts/instructions.sh" "$root/build/host" "$1" \
+    | awk '{ v[$1] = $2 } END { print v["frames"], v["frontend"], v["backend"], v["total"], v["process"] }'
+}
+
+"$root/scripts/deps.sh" aarch64 >/dev/null
+plugin_header
+plugin=$(build_plugin)
+self_test "$plugin"
+if [[ ! -x "$arm_umsvins" || -n "$(find "$root/core" "$root/hal" "$root/board" "$root/solver" -newer "$arm_umsvins" -name '*.[ch]pp' -print -quit)" ]]; then
+  echo "instructions_aarch64: building $arm_umsvins (scripts/build-arm.sh rpi4)"
+  "$root/scripts/build-arm.sh" rpi4 >/dev/null
+fi
+if [[ ${#datasets[@]} -eq 0 || $x86 -eq 1 ]]; then
+  [[ -x "$host_umsvins" ]] || { echo "instructions_aarch64: build the host first (scripts/demo.sh builds $host_umsvins)" >&2; exit 1; }
+fi
+if [[ $x86 -eq 1 ]]; then
+  command -v valgrind >/dev/null || { echo "instructions_aarch64: --x86 needs valgrind (apt-get install valgrind)" >&2; exit 1; }
+fi
+if [[ ${#datasets[@]} -eq 0 ]]; then
+  gt="$root/../shared/data/euroc/groundtruth/V101_GT.txt"
+  "$host_umsvins" simulate --trajectory "$gt" --start 20 --duration 3 --seed 1 --out "$work/V101_20s_752" --quiet >/dev/null
+  "$host_umsvins" simulate --trajectory "$gt" --start 20 --duration 3 --seed 1 --camera d455 \
+    --out "$work/V101_20s_d455" --quiet >/dev/null
+  datasets=("$work/V101_20s_752" "$work/V101_20s_d455" "$root/../shared/data/euroc/V1_01_easy_micro")
+fi
+
+printf '%-22s %-24s %6s %10s %10s %10s %10s\n' dataset arch frames "front end" "back end" pipeline process
+printf '%-22s %-24s %6s %10s %10s %10s %10s\n' "" "" "" "M/frame" "M/frame" "M/frame" "M/frame"
+for ds in "${datasets[@]}"; do
+  tag=$(basename "$ds")
+  runs=("aarch64 qemu cortex-a72")
+  [[ $x86 -eq 1 ]] && runs+=("x86-64 callgrind")
+  for arch in "${runs[@]}"; do
+    if [[ "$arch" == aarch64* ]]; then line=$(count_aarch64 "$ds" "$tag"); else line=$(count_x86 "$ds"); fi
+    read -r frames fe be pipe process <<<"$line"
+    printf '%-22s %-24s %6d %10s %10s %10s %10s\n' "$tag" "$arch" "$frames" "$fe" "$be" "$pipe" "$process"
+  done
+done

@@ -1,0 +1,226 @@
+/* A qemu-user TCG plugin that counts the guest (aarch64) instructions a program executes: all of
+ * them, and per stage the instructions executed while a given function is active, callees
+ * included (what callgrind's --toggle-collect counts on x86). scripts/instructions_aarch64.sh
+ * builds it against qemu 7.2's include/qemu/qemu-plugin.h and passes the functions' addresses.
+ *
+ * Arguments (-plugin lib.so,arg=value,...):
+ *   out=PATH               where the counts go (text, one "key label value" per line)
+ *   main=0xADDR            main's address in the ELF (nm): the load bias of a PIE is the
+ *                          difference to where qemu runs it
+ *   fn=LABEL:0xADDR:0xSIZE a function's entry and size (nm -S); functions with the same label
+ *                          count into one stage
+ *
+ * How a function's activity is followed without register access (the 7.2 API has none): a call
+ * enters at the function's first instruction, which always starts a translation block (a branch
+ * target). The call instruction executed last (BL or BLR, followed by a callback on each) is the
+ * one that made it: the function is active until control comes back to the instruction after
+ * it. That also holds when the function leaves by a tail call (its callee returns there) and when
+ * it was entered by one (the tail caller's return address is the same). State per vCPU (qemu-user
+ * runs one per guest thread). The script refuses the figures unless every entry came back. */
+#include <inttypes.h>
+#include <stdbool.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <qemu-plugin.h>
+
+QEMU_PLUGIN_EXPORT int qemu_plugin_version = QEMU_PLUGIN_VERSION;
+
+enum { kMaxFns = 16, kMaxLabels = 8, kMaxVcpus = 64, kMaxDepth = 256 };
+
+typedef struct {
+  int label_index;
+  uint64_t elf_addr, size;
+} Function;
+
+typedef struct {
+  int label;
+  uint64_t return_pc;
+} Activation;
+
+typedef struct {
+  uint64_t total;                 /* every instruction of this vCPU */
+  uint64_t in_stage[kMaxLabels];  /* instructions while the stage's functions are active */
+  uint32_t active[kMaxLabels];    /* activations of the stage on the stack */
+  uint64_t entries[kMaxLabels], returns[kMaxLabels];
+  uint64_t last_call_pc;
+  Activation stack[kMaxDepth];
+  int depth;
+  uint64_t overflows;
+} Vcpu;
+
+/* What a translated block does when it runs: come back from the activations that return to its
+ * first instruction, enter the functions it starts (a bit per label), count its instructions. */
+typedef struct {
+  uint64_t start_pc;
+  uint32_t n_insns;
+  uint32_t enter_mask;
+} BlockInfo;
+
+static Function fns[kMaxFns];
+static int n_fns;
+static char labels[kMaxLabels][32];
+static int n_labels;
+static uint64_t main_elf_addr;
+static bool have_bias;
+static int64_t load_bias;
+static Vcpu vcpus[kMaxVcpus];
+static const char* out_path;
+
+static Vcpu* vcpu_of(unsigned index) { return &vcpus[index % kMaxVcpus]; }
+
+static void on_block(unsigned vcpu_index, void* udata) {
+  const BlockInfo* b = (const BlockInfo*)udata;
+  Vcpu* v = vcpu_of(vcpu_index);
+  while (v->depth > 0 && v->stack[v->depth - 1].return_pc == b->start_pc) {
+    const int l = v->stack[--v->depth].label;
+    --v->active[l];
+    ++v->returns[l];
+  }
+  for (int l = 0; b->enter_mask != 0 && l < n_labels; ++l) {
+    if ((b->enter_mask & (1u << l)) == 0) continue;
+    ++v->entries[l];
+    if (v->depth == kMaxDepth) {
+      ++v->overflows;
+      continue;
+    }
+    v->stack[v->depth++] = (Activation){l, v->last_call_pc + 4};
+    ++v->active[l];
+  }
+  v->total += b->n_insns;
+  for (int l = 0; l < n_labels; ++l) {
+    if (v->active[l] > 0) v->in_stage[l] += b->n_insns;
+  }
+}
+
+static void on_call(unsigned vcpu_index, void* udata) { vcpu_of(vcpu_index)->last_call_pc = (uint64_t)(uintptr_t)udata; }
+
+static uint32_t word_of(const struct qemu_plugin_insn* insn) {
+  uint32_t w = 0;
+  if (qemu_plugin_insn_size(insn) == 4) memcpy(&w, qemu_plugin_insn_data(insn), 4);
+  return w;
+}
+
+static bool is_call(uint32_t w) {
+  /* BL imm26; BLR Xn; BLRAA/BLRAAZ/BLRAB/BLRABZ (pointer authentication). */
+  return (w & 0xfc000000u) == 0x94000000u || (w & 0xfffffc1fu) == 0xd63f0000u || (w & 0xfefff800u) == 0xd63f0800u;
+}
+
+static void learn_bias(struct qemu_plugin_tb* tb) {
+  if (have_bias || qemu_plugin_tb_n_insns(tb) == 0) return;
+  const char* sym = qemu_plugin_insn_symbol(qemu_plugin_tb_get_insn(tb, 0));
+  /* main is entered by a call from the C library: its first block starts at its address. */
+  if (sym != NULL && strcmp(sym, "main") == 0) {
+    load_bias = (int64_t)(qemu_plugin_tb_vaddr(tb) - main_elf_addr);
+    have_bias = true;
+  }
+}
+
+static void on_translate(qemu_plugin_id_t id, struct qemu_plugin_tb* tb) {
+  (void)id;
+  learn_bias(tb);
+  const size_t n = qemu_plugin_tb_n_insns(tb);
+  BlockInfo* info = calloc(1, sizeof *info); /* lives as long as the block: never freed */
+  info->start_pc = qemu_plugin_tb_vaddr(tb);
+  info->n_insns = (uint32_t)n;
+  for (int f = 0; have_bias && f < n_fns; ++f) {
+    if (info->start_pc == fns[f].elf_addr + (uint64_t)load_bias) info->enter_mask |= 1u << fns[f].label_index;
+  }
+  qemu_plugin_register_vcpu_tb_exec_cb(tb, on_block, QEMU_PLUGIN_CB_NO_REGS, info);
+  for (size_t i = 0; i < n; ++i) {
+    struct qemu_plugin_insn* insn = qemu_plugin_tb_get_insn(tb, i);
+    if (is_call(word_of(insn))) {
+      qemu_plugin_register_vcpu_insn_exec_cb(insn, on_call, QEMU_PLUGIN_CB_NO_REGS,
+                                             (void*)(uintptr_t)qemu_plugin_insn_vaddr(insn));
+    }
+  }
+}
+
+static void write_counts(qemu_plugin_id_t id, void* udata) {
+  (void)id;
+  (void)udata;
+  FILE* f = out_path != NULL ? fopen(out_path, "w") : NULL;
+  if (f == NULL) {
+    qemu_plugin_outs("qemu_insn_stages: cannot write the counts (out=)\n");
+    return;
+  }
+  uint64_t total = 0, overflows = 0;
+  for (int c = 0; c < kMaxVcpus; ++c) {
+    total += vcpus[c].total;
+    overflows += vcpus[c].overflows;
+  }
+  fprintf(f, "total - %" PRIu64 "\nbias_found - %d\nstack_overflows - %" PRIu64 "\n", total, have_bias ? 1 : 0,
+          overflows);
+  for (int l = 0; l < n_labels; ++l) {
+    uint64_t in = 0, entries = 0, returns = 0;
+    for (int c = 0; c < kMaxVcpus; ++c) {
+      in += vcpus[c].in_stage[l];
+      entries += vcpus[c].entries[l];
+      returns += vcpus[c].returns[l];
+    }
+    fprintf(f, "stage %s %" PRIu64 "\nentries %s %" PRIu64 "\nreturns %s %" PRIu64 "\n", labels[l], in, labels[l],
+            entries, labels[l], returns);
+  }
+  fclose(f);
+}
+
+static int label_index_of(const char* label) {
+  for (int l = 0; l < n_labels; ++l) {
+    if (strcmp(labels[l], label) == 0) return l;
+  }
+  if (n_labels == kMaxLabels) return -1;
+  snprintf(labels[n_labels], sizeof labels[0], "%s", label);
+  return n_labels++;
+}
+
+static bool parse_fn(const char* value) {
+  if (n_fns == kMaxFns) return false;
+  Function* fn = &fns[n_fns];
+  const char* colon = strchr(value, ':');
+  char label[sizeof labels[0]];
+  if (colon == NULL || colon == value || (size_t)(colon - value) >= sizeof label) return false;
+  memcpy(label, value, (size_t)(colon - value));
+  label[colon - value] = '\0';
+  char* end = NULL;
+  fn->elf_addr = strtoull(colon + 1, &end, 16);
+  if (end == NULL || *end != ':') return false;
+  fn->size = strtoull(end + 1, &end, 16);
+  if (*end != '\0' || fn->size == 0) return false;
+  fn->label_index = label_index_of(label);
+  if (fn->label_index < 0) return false;
+  ++n_fns;
+  return true;
+}
+
+QEMU_PLUGIN_EXPORT int qemu_plugin_install(qemu_plugin_id_t id, const qemu_info_t* info, int argc, char** argv) {
+  if (strcmp(info->target_name, "aarch64") != 0) {
+    fprintf(stderr, "qemu_insn_stages: aarch64 guests only (this is %s)\n", info->target_name);
+    return 1;
+  }
+  for (int i = 0; i < argc; ++i) {
+    const char* a = argv[i];
+    bool ok = true;
+    if (strncmp(a, "out=", 4) == 0) {
+      out_path = a + 4;
+    } else if (strncmp(a, "main=", 5) == 0) {
+      main_elf_addr = strtoull(a + 5, NULL, 16);
+    } else if (strncmp(a, "fn=", 3) == 0) {
+      ok = parse_fn(a + 3);
+    } else {
+      ok = false;
+    }
+    if (!ok) {
+      fprintf(stderr, "qemu_insn_stages: bad argument '%s' (out=PATH, main=0xADDR, fn=LABEL:0xADDR:0xSIZE)\n", a);
+      return 1;
+    }
+  }
+  if (out_path == NULL || (n_fns > 0 && main_elf_addr == 0)) {
+    fprintf(stderr, "qemu_insn_stages: needs out=PATH, and main=0xADDR with fn=\n");
+    return 1;
+  }
+  qemu_plugin_register_vcpu_tb_trans_cb(id, on_translate);
+  qemu_plugin_register_atexit_cb(id, write_counts, NULL);
+  return 0;
+}
