@@ -129,9 +129,12 @@ TEST_CASE("bilinear patch sampling equals the direct four-weight formula bit for
   const ums::ImageView v = img.view();
   float out[33 * 33];
   int mismatches = 0, samples = 0;
-  const int sizes[4] = {9, 15, 17, 33};
-  // Interior origins, plus ones hanging over each edge (the clamped path).
-  const float origins[6][2] = {{3.25f, 4.75f}, {20.5f, 11.125f}, {40.9f, 20.01f}, {-2.3f, 5.5f}, {70.2f, 40.6f}, {10.0f, -1.5f}};
+  // Every remainder of the four-lane kernel (n mod 4 = 0..3), the tracker's windows and larger.
+  const int sizes[9] = {1, 4, 5, 6, 7, 9, 15, 17, 33};
+  // Interior origins (integer, tiny and near-1 fractions too), plus ones hanging over each edge
+  // (the clamped path).
+  const float origins[9][2] = {{3.25f, 4.75f}, {20.5f, 11.125f}, {40.9f, 20.01f}, {12.0f, 7.0f}, {5.0001f, 9.9999f},
+                               {-2.3f, 5.5f},  {70.2f, 40.6f},   {10.0f, -1.5f},  {46.5f, 25.5f}};
   for (int n : sizes) {
     for (const auto& o : origins) {
       ums::sample_patch_bilinear(v, o[0], o[1], n, out);
