@@ -1,5 +1,7 @@
 #include "core/frontend/image_pyramid.hpp"
 
+#include <algorithm>
+#include <cstdint>
 #include <cmath>
 #include <stdexcept>
 
@@ -32,6 +34,43 @@ TEST_CASE("pyramid level 1 of a linear ramp samples the ramp at twice the coordi
   REQUIRE(pyr.build(img.view()) == ums::Status::kOk);
   // Away from the borders the symmetric kernel keeps a linear ramp exact: value = 2x.
   for (int x = 2; x < 98; ++x) CHECK(std::abs(pyr.level(1).row(20)[x] - 2 * x) <= 1);
+}
+
+TEST_CASE("pyramid levels equal the direct clamped 5x5 binomial formula at every pixel, any size") {
+  // Widths and heights of every parity, down to 1 px: the border columns and rows take the
+  // clamped path, the rest the unclamped loops.
+  const int sizes[][2] = {{1, 1}, {2, 3}, {3, 2}, {4, 5}, {5, 4}, {6, 7}, {9, 6}, {37, 23}, {64, 48}, {101, 51}};
+  for (const auto& sz : sizes) {
+    const int w = sz[0], h = sz[1];
+    ums::test::GreyImage img(w, h);
+    std::uint32_t s = 2463534242u + static_cast<std::uint32_t>(w * 1000 + h);
+    for (auto& p : img.pixels) {
+      s ^= s << 13;
+      s ^= s >> 17;
+      s ^= s << 5;
+      p = static_cast<std::uint8_t>(s >> 24);
+    }
+    ums::ImagePyramid pyr(w, h, 3);
+    REQUIRE(pyr.build(img.view()) == ums::Status::kOk);
+    int mismatches = 0;
+    for (int l = 1; l < 3; ++l) {
+      const ums::ImageView& a = pyr.level(l - 1);
+      const ums::ImageView& b = pyr.level(l);
+      const int k5[5] = {1, 4, 6, 4, 1};
+      for (int y = 0; y < b.height; ++y) {
+        for (int x = 0; x < b.width; ++x) {
+          int acc = 0;
+          for (int j = 0; j < 5; ++j) {
+            const std::uint8_t* r = a.row(std::clamp(2 * y + j - 2, 0, a.height - 1));
+            for (int i = 0; i < 5; ++i) acc += k5[j] * k5[i] * r[std::clamp(2 * x + i - 2, 0, a.width - 1)];
+          }
+          mismatches += b.row(y)[x] != static_cast<std::uint8_t>((acc + 128) >> 8) ? 1 : 0;
+        }
+      }
+    }
+    INFO(w << "x" << h);
+    CHECK(mismatches == 0);
+  }
 }
 
 TEST_CASE("pyramid rejects a wrong-size image and sizes beyond capacity, and build allocates nothing") {
