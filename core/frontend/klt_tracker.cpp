@@ -6,6 +6,12 @@
 #include <stdexcept>
 #include <string>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#elif defined(__ARM_NEON)
+#include <arm_neon.h>
+#endif
+
 namespace ums {
 
 namespace {
@@ -99,6 +105,117 @@ float mean_abs_error(const float* t, const float* w, int nn) {
   return sum_abs * inv_area;
 }
 
+
+// 8 pixels -> 8 floats (exact: the values are small integers), as two 4-lane vectors.
+constexpr int kWiden = 8;
+inline void widen8(const std::uint8_t* p, float* out) {
+#if defined(__SSE2__)
+  const __m128i zero = _mm_setzero_si128();
+  const __m128i w = _mm_unpacklo_epi8(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(p)), zero);
+  _mm_storeu_ps(out, _mm_cvtepi32_ps(_mm_unpacklo_epi16(w, zero)));
+  _mm_storeu_ps(out + 4, _mm_cvtepi32_ps(_mm_unpackhi_epi16(w, zero)));
+#elif defined(__ARM_NEON)
+  const uint16x8_t w = vmovl_u8(vld1_u8(p));
+  vst1q_f32(out, vcvtq_f32_u32(vmovl_u16(vget_low_u16(w))));
+  vst1q_f32(out + 4, vcvtq_f32_u32(vmovl_u16(vget_high_u16(w))));
+#else
+  for (int i = 0; i < kWiden; ++i) out[i] = static_cast<float>(p[i]);
+#endif
+}
+
+inline void store(float* p, Lanes v) { std::memcpy(p, &v, sizeof v); }
+
+// The largest source row converted: window + 2 (the template with its gradient border), rounded
+// up to whole vectors, plus the right neighbour, rounded up to whole 8-pixel loads.
+constexpr int kMaxSrcRow = ((KltOptions::kMaxWindowPx + 2 + kLanes - 1) / kLanes * kLanes + 1 + kWiden - 1) / kWiden * kWiden;
+constexpr int kMaxSrcRows = KltOptions::kMaxWindowPx + 3;
+
+// Source pixels x0 .. x0 + src - 1 of row y (clamped into the image) as floats. Inside the image
+// 8 at a time; a row that crosses the left or right border clamps each pixel.
+void convert_row(const ImageView& image, int x0, int y, int src, float* f) {
+  const std::uint8_t* r = image.row(std::clamp(y, 0, image.height - 1));
+  if (x0 >= 0 && x0 + src <= image.width) {
+    for (int i = 0; i < src; i += kWiden) widen8(r + x0 + i, f + i);
+    return;
+  }
+  const int wmax = image.width - 1;
+  for (int i = 0; i < src; ++i) f[i] = static_cast<float>(r[std::clamp(x0 + i, 0, wmax)]);
+}
+
+// Bilinear patches from the pixels under them, converted to float once per integer origin: the
+// iterations of one KLT level mostly move the window by less than a pixel and reuse them.
+class SourceBlock {
+ public:
+  // sample_patch_bilinear's contract (n checked by the caller).
+  void sample(const ImageView& image, float x, float y, int n, float* out) {
+    const float fx0 = std::floor(x), fy0 = std::floor(y);
+    const int x0 = static_cast<int>(fx0), y0 = static_cast<int>(fy0);
+    const float ax = x - fx0, ay = y - fy0;
+    // One fraction for the whole patch: four weights, reused for every sample.
+    const float w00 = (1.0f - ax) * (1.0f - ay), w01 = ax * (1.0f - ay), w10 = (1.0f - ax) * ay, w11 = ax * ay;
+    const int cols = (n + kLanes - 1) / kLanes * kLanes;
+    if (image.data != data_ || image.stride != stride_ || x0 != x0_ || y0 != y0_ || n != n_) {
+      const int src = (cols + 1 + kWiden - 1) / kWiden * kWiden;
+      for (int j = 0; j <= n; ++j) convert_row(image, x0, y0 + j, src, rows_[j]);
+      data_ = image.data;
+      stride_ = image.stride;
+      x0_ = x0;
+      y0_ = y0;
+      n_ = n;
+    }
+    interpolate(n, cols, Lanes{w00, w00, w00, w00}, Lanes{w01, w01, w01, w01}, Lanes{w10, w10, w10, w10},
+                Lanes{w11, w11, w11, w11}, out);
+  }
+
+ private:
+  // Each output row in whole 4-lane vectors: the samples past n land on the next row's start,
+  // which that row overwrites; the last row goes through a scratch row. The products and their
+  // order are the scalar formula's, w00 p00 + w01 p01 + w10 p10 + w11 p11: the same floats on
+  // every machine.
+  void interpolate(int n, int cols, Lanes w00, Lanes w01, Lanes w10, Lanes w11, float* out) const {
+    alignas(16) float last[kMaxSrcRow];
+    for (int j = 0; j < n; ++j) {
+      const float* f0 = rows_[j];
+      const float* f1 = rows_[j + 1];
+      float* o = j + 1 < n ? out + j * n : last;
+      for (int i = 0; i < cols; i += kLanes) {
+        store(o + i, w00 * load(f0 + i) + w01 * load(f0 + i + 1) + w10 * load(f1 + i) + w11 * load(f1 + i + 1));
+      }
+    }
+    std::memcpy(out + (n - 1) * n, last, sizeof(float) * static_cast<std::size_t>(n));
+  }
+
+  const std::uint8_t* data_ = nullptr;  // the image whose pixels rows_ holds (none yet)
+  int stride_ = 0, x0_ = 0, y0_ = 0, n_ = 0;
+  alignas(16) float rows_[kMaxSrcRows][kMaxSrcRow];
+};
+
+void check_patch_size(int n) {
+  if (n < 1 || n > KltOptions::kMaxWindowPx + 2) {
+    throw std::invalid_argument("sample_patch_bilinear: n must be in 1.." + std::to_string(KltOptions::kMaxWindowPx + 2) +
+                                ", got " + std::to_string(n));
+  }
+}
+
+// The n x n template (the centre of the (n + 2)^2 patch ext) and its central-difference
+// gradients, row by row in whole 4-lane vectors: the lanes past n land on the next row's start,
+// which that row overwrites, and past the last row in the arrays' kLanes of padding (ext, too, is
+// read up to kLanes past its end). Element by element as the scalar formula: the same floats.
+void template_and_gradients(const float* ext, int n, float* tmpl, float* gx, float* gy) {
+  const int ne = n + 2;
+  const int cols = (n + kLanes - 1) / kLanes * kLanes;
+  const Lanes half{0.5f, 0.5f, 0.5f, 0.5f};
+  for (int j = 0; j < n; ++j) {
+    const float* c = ext + (j + 1) * ne + 1;
+    const int k0 = j * n;
+    for (int i = 0; i < cols; i += kLanes) {
+      store(tmpl + k0 + i, load(c + i));
+      store(gx + k0 + i, half * (load(c + i + 1) - load(c + i - 1)));
+      store(gy + k0 + i, half * (load(c + i + ne) - load(c + i - ne)));
+    }
+  }
+}
+
 }  // namespace
 
 void KltOptions::validate() const {
@@ -115,52 +232,22 @@ void KltOptions::validate() const {
 }
 
 void sample_patch_bilinear(const ImageView& image, float x, float y, int n, float* out) {
-  const float fx0 = std::floor(x), fy0 = std::floor(y);
-  const int x0 = static_cast<int>(fx0), y0 = static_cast<int>(fy0);
-  const float ax = x - fx0, ay = y - fy0;
-  // One fraction for the whole patch: four weights, reused for every sample.
-  const float w00 = (1.0f - ax) * (1.0f - ay), w01 = ax * (1.0f - ay), w10 = (1.0f - ax) * ay, w11 = ax * ay;
-  constexpr int kMaxRow = KltOptions::kMaxWindowPx + 3;  // the largest patch sampled: window + 2, plus 1
-  if (x0 >= 0 && y0 >= 0 && x0 + n < image.width && y0 + n < image.height && n + 1 <= kMaxRow) {
-    // Each source row is converted to float once and serves two output rows. The products and
-    // their order are those of the direct formula, so the samples are bit-identical to it.
-    alignas(16) float rows[2][kMaxRow];
-    auto convert = [&](int j, float* __restrict f) {
-      const std::uint8_t* __restrict r = image.row(y0 + j) + x0;
-      for (int i = 0; i <= n; ++i) f[i] = static_cast<float>(r[i]);
-    };
-    convert(0, rows[0]);
-    for (int j = 0; j < n; ++j) {
-      const float* __restrict f0 = rows[j & 1];
-      float* __restrict f1 = rows[(j + 1) & 1];
-      convert(j + 1, f1);
-      float* __restrict o = out + j * n;
-      for (int i = 0; i < n; ++i) o[i] = w00 * f0[i] + w01 * f0[i + 1] + w10 * f1[i] + w11 * f1[i + 1];
-    }
-    return;
-  }
-  const int wmax = image.width - 1, hmax = image.height - 1;
-  for (int j = 0; j < n; ++j) {
-    const std::uint8_t* r0 = image.row(std::clamp(y0 + j, 0, hmax));
-    const std::uint8_t* r1 = image.row(std::clamp(y0 + j + 1, 0, hmax));
-    float* o = out + j * n;
-    for (int i = 0; i < n; ++i) {
-      const int xa = std::clamp(x0 + i, 0, wmax), xb = std::clamp(x0 + i + 1, 0, wmax);
-      o[i] = w00 * static_cast<float>(r0[xa]) + w01 * static_cast<float>(r0[xb]) + w10 * static_cast<float>(r1[xa]) +
-             w11 * static_cast<float>(r1[xb]);
-    }
-  }
+  check_patch_size(n);
+  SourceBlock block;
+  block.sample(image, x, y, n, out);
 }
 
 Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels, const KltOptions& options,
                  const Eigen::Vector2f& p_prev, Eigen::Vector2f* p_curr) {
   constexpr int kMaxN = KltOptions::kMaxWindowPx;
   constexpr int kMaxT = kMaxN + 2;
-  float tmpl_ext[kMaxT * kMaxT];
-  alignas(16) float tmpl[kMaxN * kMaxN];
-  alignas(16) float gx[kMaxN * kMaxN];
-  alignas(16) float gy[kMaxN * kMaxN];
+  // + kLanes: template_and_gradients reads and writes whole vectors past the last row's end.
+  alignas(16) float tmpl_ext[kMaxT * kMaxT + kLanes];
+  alignas(16) float tmpl[kMaxN * kMaxN + kLanes];
+  alignas(16) float gx[kMaxN * kMaxN + kLanes];
+  alignas(16) float gy[kMaxN * kMaxN + kLanes];
   alignas(16) float warped[kMaxN * kMaxN];
+  SourceBlock template_block, warped_block;  // the pixels under the template and under the window
 
   const int n = options.window_px;
   const int half = n / 2;
@@ -179,16 +266,8 @@ Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels,
     const ImageView& J = curr.level(level);
     const Eigen::Vector2f p = p_prev * scale;
 
-    sample_patch_bilinear(I, p.x() - static_cast<float>(half + 1), p.y() - static_cast<float>(half + 1), ne, tmpl_ext);
-    for (int j = 0; j < n; ++j) {
-      const float* c = tmpl_ext + (j + 1) * ne + 1;
-      for (int i = 0; i < n; ++i) {
-        const int k = j * n + i;
-        tmpl[k] = c[i];
-        gx[k] = 0.5f * (c[i + 1] - c[i - 1]);
-        gy[k] = 0.5f * (c[i + ne] - c[i - ne]);
-      }
-    }
+    template_block.sample(I, p.x() - static_cast<float>(half + 1), p.y() - static_cast<float>(half + 1), ne, tmpl_ext);
+    template_and_gradients(tmpl_ext, n, tmpl, gx, gy);
     const GradientSums gs = gradient_sums(gx, gy, nn);
     const float gxx = gs.gxx, gxy = gs.gxy, gyy = gs.gyy;
     // Smallest eigenvalue of the mean structure tensor: an untextured window cannot be tracked.
@@ -214,7 +293,7 @@ Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels,
         left_image = true;  // the window left the image entirely
         break;
       }
-      sample_patch_bilinear(J, qx - static_cast<float>(half), qy - static_cast<float>(half), n, warped);
+      warped_block.sample(J, qx - static_cast<float>(half), qy - static_cast<float>(half), n, warped);
       // Intensity offset between the windows (exposure, or the two cameras' gains) removed:
       // e = (T - mean T) - (J - mean J) = d - mean d with d = T - J, so
       // sum e g = sum d g - mean(d) sum g (d is small near convergence: no cancellation).
@@ -247,7 +326,7 @@ Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels,
     return Status::kNotConverged;
   }
   // Photometric check at level 0 (the template was sampled at level 0 in the last pass).
-  sample_patch_bilinear(J0, result.x() - static_cast<float>(half), result.y() - static_cast<float>(half), n, warped);
+  warped_block.sample(J0, result.x() - static_cast<float>(half), result.y() - static_cast<float>(half), n, warped);
   if (!(mean_abs_error(tmpl, warped, nn) <= options.max_mean_abs_error)) return Status::kNotConverged;
   *p_curr = result;
   return Status::kOk;

@@ -36,7 +36,9 @@ Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels,
                  const Eigen::Vector2f& p_prev, Eigen::Vector2f* p_curr);
 
 // Samples an n x n patch whose top-left sample sits at (x, y) (sub-pixel, level px) with bilinear
-// interpolation; samples outside the image use the nearest border pixel. out has n*n floats.
+// interpolation; samples outside the image use the nearest border pixel. out has n*n floats;
+// n is 1..KltOptions::kMaxWindowPx + 2 (std::invalid_argument otherwise). Bit-identical on every
+// architecture (fixed lane order, no contraction).
 void sample_patch_bilinear(const ImageView& image, float x, float y, int n, float* out);
 
 }  // namespace ums

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <stdexcept>
 
 #include <catch2/catch.hpp>
 
@@ -136,7 +137,13 @@ TEST_CASE("bilinear patch sampling equals the direct four-weight formula bit for
   const float origins[9][2] = {{3.25f, 4.75f}, {20.5f, 11.125f}, {40.9f, 20.01f}, {12.0f, 7.0f}, {5.0001f, 9.9999f},
                                {-2.3f, 5.5f},  {70.2f, 40.6f},   {10.0f, -1.5f},  {46.5f, 25.5f}};
   for (int n : sizes) {
-    for (const auto& o : origins) {
+    // The vector path reads whole 8-pixel loads: the origins where its last load ends exactly at
+    // the right edge (still inside) and one pixel further (clamped) are the ones that matter.
+    const int cols = (n + 3) / 4 * 4, src = (cols + 1 + 7) / 8 * 8;
+    const float edge_x = static_cast<float>(w - src);
+    const float edge_origins[3][2] = {{edge_x + 0.375f, 2.5f}, {edge_x + 1.375f, 2.5f}, {1.5f, static_cast<float>(h - n - 1) + 0.25f}};
+    for (int k = 0; k < 12; ++k) {
+      const float* o = k < 9 ? origins[k] : edge_origins[k - 9];
       ums::sample_patch_bilinear(v, o[0], o[1], n, out);
       const float fx0 = std::floor(o[0]), fy0 = std::floor(o[1]);
       const float ax = o[0] - fx0, ay = o[1] - fy0;
@@ -155,5 +162,9 @@ TEST_CASE("bilinear patch sampling equals the direct four-weight formula bit for
     }
   }
   INFO(samples << " samples");
+  CHECK(samples == 12 * (1 + 16 + 25 + 36 + 49 + 81 + 225 + 289 + 1089));
   CHECK(mismatches == 0);
+  // Beyond the stack rows it was sized for: refused, not overrun.
+  CHECK_THROWS_AS(ums::sample_patch_bilinear(v, 3.0f, 3.0f, ums::KltOptions::kMaxWindowPx + 3, out), std::invalid_argument);
+  CHECK_THROWS_AS(ums::sample_patch_bilinear(v, 3.0f, 3.0f, 0, out), std::invalid_argument);
 }
