@@ -25,6 +25,10 @@ inline constexpr std::size_t kMaxObservationsPerLandmark = kWindowSize;
 inline constexpr std::size_t kMaxImuSamplesBetweenFrames = 512;  // 1 kHz IMU at 2 fps, bounded
 inline constexpr std::size_t kImuRingSize = 2048;                // samples buffered ahead of frames
 
+// Two cores (core/pipeline/backend_executor.hpp): back-end tasks waiting for the back end's
+// thread, each one IMU sample or one frame. 256 is 1.3 s of a 200 Hz IMU, 0.25 s of 1 kHz.
+inline constexpr std::size_t kBackendTasks = 256;
+
 // Replay / HAL
 inline constexpr std::size_t kMaxPathLength = 4096;  // bytes, file paths built at start-up
 

@@ -18,6 +18,14 @@
 // owns no thread, no file and no clock of its own (the board times and counts around it); the
 // caller pushes in time order from one thread. What the last frame did (status, features, the
 // estimate, stage timings) stays readable until the next on_stereo.
+//
+// Two cores: with a BackendExecutor set, everything after the front end (the estimator, poses,
+// the frame observer, keyframe images and keyframes) runs as the executor's tasks, in the order
+// a single thread would run it, so the front end of frame k+1 overlaps the back end of frame k
+// and the results are the same. The frame's pixels are then copied for its back end (the source
+// owns them only during on_stereo). Sinks and the observer are called from the executor's thread;
+// last_frame(), features(), counters().keyframes and estimator() are then valid in those calls and
+// after flush().
 
 #include <cstdint>
 #include <memory>
@@ -25,12 +33,14 @@
 #include <Eigen/Geometry>
 
 #include "core/common/calibration.hpp"
+#include "core/common/capacity.hpp"
 #include "core/common/measurement_sink.hpp"
 #include "core/common/status.hpp"
 #include "core/estimator/estimator.hpp"
 #include "core/frontend/frame_features.hpp"
 #include "core/frontend/frontend.hpp"
 #include "core/imu/saturation.hpp"
+#include "core/pipeline/backend_executor.hpp"
 #include "core/pipeline/keyframe_image_sink.hpp"
 #include "core/pipeline/pose_sink.hpp"
 #include "core/pipeline/time_aligner.hpp"
@@ -84,19 +94,39 @@ class VioPipeline final : public MeasurementSink {
 
   void on_imu(const ImuSample& sample) override;
   void on_stereo(const StereoFrame& frame) override;
-  // End of the input: a frame or IMU samples still held for the camera-IMU offset go on.
-  void flush() { aligner_.flush(&aligned_); }
+  // End of the input: a frame or IMU samples still held for the camera-IMU offset go on (and,
+  // with an executor, their back end has run when this returns).
+  void flush();
+
+  // Start-up, before the first push: the back end's tasks go to executor (not owned; nullptr:
+  // inline). Allocates the frame copies. std::invalid_argument with estimate_td, whose estimate
+  // of frame k stamps frame k+1 before its front end runs: the stages cannot overlap.
+  void set_backend_executor(BackendExecutor* executor);
+  // With an executor: returns once every back-end task so far has run (then the sinks may be
+  // swapped and the back end's results read); rethrows a task's exception. Inline: nothing to do.
+  void wait_backend();
 
   // Not owned; nullptr: the output is not produced. Set between pushes.
-  void set_pose_sink(PoseSink* sink) { pose_sink_ = sink; }
-  void set_keyframe_image_sink(KeyframeImageSink* sink) { keyframe_sink_ = sink; }
-  void set_frame_observer(FrameObserver* observer) { frame_observer_ = observer; }
+  void set_pose_sink(PoseSink* sink) {
+    wait_backend();
+    pose_sink_ = sink;
+  }
+  void set_keyframe_image_sink(KeyframeImageSink* sink) {
+    wait_backend();
+    keyframe_sink_ = sink;
+  }
+  void set_frame_observer(FrameObserver* observer) {
+    wait_backend();
+    frame_observer_ = observer;
+  }
   // The estimator's marginalized keyframes (no effect with frontend_only).
   void set_keyframe_sink(KeyframeSink* sink) {
+    wait_backend();
     if (estimator_ != nullptr) estimator_->set_keyframe_sink(sink);
   }
   // Tightly coupled relocation's requests and results (no effect with frontend_only).
   void set_relocation_link(RelocationLink* link) {
+    wait_backend();
     if (estimator_ != nullptr) estimator_->set_relocation_link(link);
   }
 
@@ -105,7 +135,8 @@ class VioPipeline final : public MeasurementSink {
   const TimeAlignerCounters& time_alignment() const { return aligner_.counters(); }
   std::int64_t applied_td_ns() const { return aligner_.td_ns(); }  // the offset new frames get
   const VioFrameRecord& last_frame() const { return record_; }  // the last frame processed
-  const FrameFeatures& features() const { return *features_; }  // the last frame's (frontend_status kOk)
+  // The last processed frame's (frontend_status kOk).
+  const FrameFeatures& features() const { return *slots_[backend_slot_].features; }
 
  private:
   // What leaves the TimeAligner: IMU-time order, frames on the IMU clock.
@@ -115,11 +146,35 @@ class VioPipeline final : public MeasurementSink {
     void on_stereo(const StereoFrame& frame) override { pipeline->process_stereo(frame); }
     VioPipeline* pipeline;
   };
+  // A frame between its front end and its back end: its features, what the front end recorded
+  // and, with an executor, a copy of its pixels (two slots: the front end fills one while the back
+  // end of the previous frame reads the other).
+  struct FrameSlot {
+    std::unique_ptr<FrameFeatures> features;
+    VioFrameRecord record;
+    std::int64_t start_ns = 0;  // steady clock at the frame's arrival
+    StereoFrame frame;          // views into pixels (executor only)
+    std::unique_ptr<std::uint8_t[]> pixels;
+  };
+  // An IMU sample on its way to the estimator (executor only).
+  struct ImuTask {
+    ImuSample sample;   // as clipped by the saturation element
+    bool saturated = false;
+    std::int64_t lost_ns = 0;
+    bool after_first_frame = false;
+  };
+  static constexpr std::size_t kImuTasks = capacity::kBackendTasks + 2;  // never one still waiting
+
   static std::int64_t td_range_ns(const VioPipelineOptions& options, const EstimatorOptions& estimator);
+  static void frame_task(void* self, std::uint32_t slot);
+  static void imu_task(void* self, std::uint32_t index);
   void process_imu(const ImuSample& sample);
   void process_stereo(const StereoFrame& frame_imu_clock);
   void integrate_hint(const ImuSample& sample, const ImuSample& clipped);
-  void run_frontend(const StereoFrame& frame);
+  void run_frontend(const StereoFrame& frame, FrameSlot* slot);
+  void copy_frame(const StereoFrame& frame, FrameSlot* slot) const;
+  void run_backend(int slot, const StereoFrame& frame);
+  void run_imu(const ImuSample& sample, bool saturated, std::int64_t lost_ns, bool after_first_frame);
   void run_estimator(const StereoFrame& frame);
   void hand_on_settled(const EstimatorOutput& est, const StereoFrame& frame);
 
@@ -128,7 +183,13 @@ class VioPipeline final : public MeasurementSink {
   SaturationElement saturation_;
   Frontend frontend_;
   std::unique_ptr<Estimator> estimator_;
-  std::unique_ptr<FrameFeatures> features_;  // one frame's features, allocated once
+  FrameSlot slots_[2];       // features allocated once; pixels with an executor
+  int frontend_slot_ = 0;    // the slot the next front end fills (always 0 without an executor)
+  int backend_slot_ = 0;     // the slot of the frame whose back end ran last
+  BackendExecutor* executor_ = nullptr;
+  int max_width_ = 0, max_height_ = 0;  // px, the largest calibrated image (frame copies)
+  std::unique_ptr<ImuTask[]> imu_tasks_;  // kImuTasks, with an executor
+  std::size_t next_imu_task_ = 0;
   FrameObserver* frame_observer_ = nullptr;
   PoseSink* pose_sink_ = nullptr;
   KeyframeImageSink* keyframe_sink_ = nullptr;

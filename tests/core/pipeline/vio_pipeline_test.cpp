@@ -10,6 +10,7 @@
 #include <initializer_list>
 #include <limits>
 #include <memory>
+#include <stdexcept>
 #include <vector>
 
 #include <catch2/catch.hpp>
@@ -128,7 +129,8 @@ void corrupt(std::initializer_list<ImuCorruption> corruptions, std::size_t index
 
 // The micro sequence through a VioPipeline (rig td_s set to td_s); allocations counted from the
 // 50th frame on.
-Run run_micro(double td_s, bool frontend_only = false, std::initializer_list<ImuCorruption> corruption = {}) {
+Run run_micro(double td_s, bool frontend_only = false, std::initializer_list<ImuCorruption> corruption = {},
+              ums::BackendExecutor* executor = nullptr) {
   ums::hal::EurocReader reader;
   reader.open(ums::test::euroc_micro_dir(), ums::hal::EurocReaderOptions());
   ums::RigCalibration rig = reader.calibration();
@@ -141,6 +143,7 @@ Run run_micro(double td_s, bool frontend_only = false, std::initializer_list<Imu
   observer.records = &run.records;
   observer.estimated_valid = &run.estimated_valid;
   pipeline->set_frame_observer(&observer);
+  pipeline->set_backend_executor(executor);
   for (auto* v : {&run.frame_t_ns, &run.imu_t_ns}) v->reserve(16 * kReserve);
   run.left_sum.reserve(kReserve);
   run.records.reserve(kReserve);
@@ -159,6 +162,32 @@ Run run_micro(double td_s, bool frontend_only = false, std::initializer_list<Imu
   run.counters = pipeline->counters();
   return run;
 }
+
+// Runs the back end's tasks later, on the calling thread: all of them at wait_idle(), or when
+// capacity::kBackendTasks wait. A frame's back end then runs after the next pair was read, whose
+// pixels the reader writes over the previous pair's: what the pipeline hands a task must be its own.
+class DeferredExecutor final : public ums::BackendExecutor {
+ public:
+  void submit(Task task, void* context, std::uint32_t arg) override {
+    if (waiting_ == ums::capacity::kBackendTasks) wait_idle();
+    queue_[waiting_++] = Entry{task, context, arg};
+    if (waiting_ > deepest) deepest = waiting_;
+  }
+  void wait_idle() override {
+    for (std::size_t i = 0; i < waiting_; ++i) queue_[i].task(queue_[i].context, queue_[i].arg);
+    waiting_ = 0;
+  }
+  std::size_t deepest = 0;  // the most tasks that waited at once
+
+ private:
+  struct Entry {
+    Task task = nullptr;
+    void* context = nullptr;
+    std::uint32_t arg = 0;
+  };
+  Entry queue_[ums::capacity::kBackendTasks];
+  std::size_t waiting_ = 0;
+};
 
 }  // namespace
 
@@ -206,6 +235,59 @@ TEST_CASE("pipeline on the EuRoC micro sequence: a pose per frame with one, keyf
 // reach the estimator: they are dropped and counted, not ramped in by the slew limiter. The vehicle
 // rests in the micro sequence, so 0.1 s of each, at 1.5, 2.5 and 3.5 s, must leave the poses where
 // the clean run has them. (One run with all three: each run is 20 s under qemu.)
+TEST_CASE("pipeline with a back-end executor: the same poses, keyframe images and records as inline, 0 allocations",
+          "[pipeline]") {
+  const Run inline_run = run_micro(0.0);
+  DeferredExecutor executor;
+  const Run deferred = run_micro(0.0, false, {}, &executor);
+  CHECK(executor.deepest >= 10);  // a frame's back end and the IMU samples after it waited
+  REQUIRE(deferred.records.size() == inline_run.records.size());
+  REQUIRE(deferred.out.frame_poses.size() == inline_run.out.frame_poses.size());
+  CHECK(deferred.out.frame_poses.size() >= 80);
+  int pose_mismatches = 0;
+  for (std::size_t i = 0; i < inline_run.out.frame_poses.size(); ++i) {
+    const FramePose& a = inline_run.out.frame_poses[i];
+    const FramePose& b = deferred.out.frame_poses[i];
+    pose_mismatches += (a.t_ns != b.t_ns || a.id != b.id || a.keyframe != b.keyframe) ? 1 : 0;
+  }
+  CHECK(pose_mismatches == 0);
+  int estimate_mismatches = 0;
+  for (std::size_t i = 0; i < inline_run.records.size(); ++i) {
+    const ums::EstimatorOutput& a = inline_run.records[i].estimate;
+    const ums::EstimatorOutput& b = deferred.records[i].estimate;
+    estimate_mismatches += (a.p_w_b != b.p_w_b || a.q_w_b.coeffs() != b.q_w_b.coeffs() || a.v_w_b != b.v_w_b) ? 1 : 0;
+  }
+  CHECK(estimate_mismatches == 0);  // bit for bit
+  CHECK(deferred.out.imu_pose_t_ns == inline_run.out.imu_pose_t_ns);
+  // Keyframe images with the settled frame's own pixels, though the reader has moved on since.
+  REQUIRE(deferred.out.keyframes.size() == inline_run.out.keyframes.size());
+  CHECK(deferred.out.keyframes.size() >= 10);
+  int image_mismatches = 0;
+  for (std::size_t i = 0; i < inline_run.out.keyframes.size(); ++i) {
+    const KeyframeImage& a = inline_run.out.keyframes[i];
+    const KeyframeImage& b = deferred.out.keyframes[i];
+    image_mismatches += (a.id != b.id || a.t_ns != b.t_ns || a.pixel_sum != b.pixel_sum || a.n_features != b.n_features) ? 1 : 0;
+  }
+  CHECK(image_mismatches == 0);
+  CHECK(deferred.counters.keyframes == inline_run.counters.keyframes);
+  CHECK(deferred.steady_allocations == 0);
+}
+
+TEST_CASE("pipeline: a back-end executor is refused with estimate_td (frame k's estimate stamps frame k+1)", "[pipeline]") {
+  ums::hal::EurocReader reader;
+  reader.open(ums::test::euroc_micro_dir(), ums::hal::EurocReaderOptions());
+  ums::VioPipelineOptions po;
+  ums::EstimatorOptions eo;
+  eo.focal_px = reader.calibration().cam[0].fx;
+  eo.keyframe.focal_px = static_cast<float>(eo.focal_px);
+  eo.preintegration.noise = ums::ImuNoise::from_calibration(reader.calibration().imu);
+  eo.estimate_td = true;
+  ums::VioPipeline pipeline(po, ums::FrontendOptions(), eo, reader.calibration());
+  DeferredExecutor executor;
+  CHECK_THROWS_AS(pipeline.set_backend_executor(&executor), std::invalid_argument);
+  CHECK_NOTHROW(pipeline.set_backend_executor(nullptr));
+}
+
 TEST_CASE("pipeline: NaN and huge IMU samples are dropped and counted, the poses stay put", "[pipeline][slow]") {
   const Run clean = run_micro(0.0);
   const Run bad = run_micro(0.0, false,
