@@ -17,13 +17,14 @@ kind="${1:-asan}"
 jobs="${UMS_SAN_JOBS:-$(nproc)}"
 nice_level="${UMS_SAN_NICE:-0}"
 
-# Every test that starts a thread: the live command (test_cli, test_loop_session: replay/live
+# Every test that starts a thread: the live command and replay --two-core (test_cli), the back end's
+# thread (test_backend_thread), test_loop_session (replay/live
 # --loop), the D455 thread bridge, SPSC ring, recorder and real-time tests (test_d455), the loop
 # worker, the allocation counter's per-thread test (test_profiling) and the renderers, which draw
 # the two cameras on two threads (test_sim; the mavlink_decode tests run umsvins simulate and
 # live-like replays too).
-tsan_tests='^(test_cli|test_loop_session|test_loop_worker|test_d455|test_profiling|test_sim):|^mavlink_decode:'
-tsan_targets=(test_cli test_loop_session test_loop_worker test_d455 test_profiling test_sim umsvins)
+tsan_tests='^(test_cli|test_backend_thread|test_loop_session|test_loop_worker|test_d455|test_profiling|test_sim):|^mavlink_decode:'
+tsan_targets=(test_cli test_backend_thread test_loop_session test_loop_worker test_d455 test_profiling test_sim umsvins)
 
 sup="$root/tests/sanitizers"
 case "$kind" in

@@ -13,7 +13,7 @@ constexpr const char* kUsage = R"(umsvins: stereo visual-inertial odometry (UMS-
 usage: umsvins <command> [options]
 
   replay <dataset> [--config F] [--out DIR] [--start S] [--duration S] [--realtime]
-                   [--frontend-only] [--quiet] [--deterministic] [--mavlink ...]
+                   [--frontend-only] [--quiet] [--deterministic] [--two-core] [--mavlink ...]
                    [--loop | --vocabulary F] [--load-map F] [--save-map F] [--map-spread-s S]
                    [--fault KIND:START_S:DURATION_S[:PARAM][,...]] [--fault-seed N]
       Run on an EuRoC-layout folder (the one holding mav0/). Writes DIR/stats.json
@@ -26,6 +26,8 @@ usage: umsvins <command> [options]
       --mavlink the map frame goes out, each correction a reset or, with --map-spread-s S, a ramp.
       --no-tight-relocation: loops keep the verifier's measurement (no refinement in the window).
       --deterministic: solver rounds bounded by iterations, not wall time (same result anywhere).
+      --two-core: the estimator on a second thread, overlapping the next frame's front end (the
+      same trajectory; more frames per second where two cores are free; not with estimate_td).
       --fault: sensor faults on the way in (docs/robustness.md): imu-gap, imu-nan, imu-huge,
       imu-dup, imu-swap, frame-gap, frame-drop (PARAM probability), frame-freeze, frame-dup,
       right-lost, blackout, clock-jump (PARAM s), images-end; counted in stats.json "faults".
@@ -58,8 +60,9 @@ usage: umsvins <command> [options]
   sweep <dataset> --runs N --start-range A:B --out DIR [--seed S] [--duration D] [--config F]
       Repeat replay from random start times (robustness table).
   live [--config F] [--source d455|replay:DIR] [--out DIR] [--seconds S] [--mavlink ...]
-       [--loop | --vocabulary F] [--load-map F] [--save-map F] [--map-spread-s S]
+       [--loop | --vocabulary F] [--load-map F] [--save-map F] [--map-spread-s S] [--two-core]
       Run the threaded board app on a RealSense D455 (or a recorded source). Ctrl-C stops it.
+      --two-core: the estimator on its own thread, as for replay.
       Loop closure options as for replay (a keyframe the busy loop thread cannot take is dropped
       and counted: a frame never waits for loop closure).
   record --out DIR [--seconds S]             Record a D455 to the EuRoC layout.

@@ -238,7 +238,7 @@ ProducerResult run_threads(LiveSource& src, d455::ThreadBridge& bridge, ReplayPi
 }  // namespace
 
 int run_live(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
-  const Args args("live", argv, with_mavlink_flags({"quiet", "loop", "no-tight-relocation"}),
+  const Args args("live", argv, with_mavlink_flags({"quiet", "loop", "no-tight-relocation", "two-core"}),
                   with_mavlink_valued({"config", "source", "out", "seconds", "duration", "vocabulary", "load-map",
                                        "save-map", "map-spread-s"}));
   args.require_positionals(0, "");
@@ -251,7 +251,9 @@ int run_live(const std::vector<std::string>& argv, std::ostream& out, std::ostre
   std::filesystem::create_directories(out_dir);
 
   AllocScope startup_allocs;
-  ReplayPipeline pipeline(config, ReplayPipelineOptions{});
+  ReplayPipelineOptions pipeline_options;
+  pipeline_options.two_core = args.has("two-core");  // the estimator on a third thread
+  ReplayPipeline pipeline(config, pipeline_options);
   pipeline.set_static_bytes(static_cast<std::size_t>(startup_allocs.bytes()) + sizeof(ReplayPipeline));
   auto bridge = std::make_unique<d455::ThreadBridge>(config.rig.cam[0].width, config.rig.cam[0].height);
   LivePoseFiles files = open_pose_files(out_dir, pipeline);

@@ -377,7 +377,7 @@ hal::EurocReaderOptions reader_options_of(const Args& args) {
 }  // namespace
 
 int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
-  const Args args("replay", argv, with_mavlink_flags({"realtime", "frontend-only", "quiet", "deterministic", "loop", "no-tight-relocation"}),
+  const Args args("replay", argv, with_mavlink_flags({"realtime", "frontend-only", "quiet", "deterministic", "loop", "no-tight-relocation", "two-core"}),
                   with_mavlink_valued({"config", "out", "start", "duration", "vocabulary", "load-map", "save-map", "map-spread-s",
                                        "fault", "fault-seed"}));
   args.require_positionals(1, "<dataset> (the folder holding mav0/)");
@@ -395,6 +395,7 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
   ReplayPipelineOptions pipeline_options;
   pipeline_options.frontend_only = args.has("frontend-only");
   pipeline_options.deterministic = args.has("deterministic");
+  pipeline_options.two_core = args.has("two-core");
   pipeline_options.report_frames = reader.total_pairs_estimate() + 16;
   // Start-up footprint: everything the pipeline allocates while it is built, plus itself.
   AllocScope startup_allocs;

@@ -66,12 +66,14 @@ VioPipelineOptions vio_options_from(const ReplayPipelineOptions& pipeline) {
 ReplayPipeline::ReplayPipeline(const AppConfig& config, const ReplayPipelineOptions& options)
     : options_(options),
       times_(new StageTimes()),
+      backend_(options.two_core ? new BackendThread() : nullptr),
       vio_(vio_options_from(options), frontend_options_from(config), estimator_options_from(config, options),
            config.rig),
       rig_td_s_(config.rig.td_s) {
   fanout_.set(0, &poses_);
   vio_.set_pose_sink(&fanout_);
   vio_.set_frame_observer(this);
+  vio_.set_backend_executor(backend_.get());
   // Reserved here so that recording a frame never allocates; beyond it frames are counted only.
   for (auto* v : {&series_.t_s, &series_.frontend_ms, &series_.total_ms, &series_.backend_ms, &series_.est_t_s,
                   &series_.est_td_ms})
@@ -80,7 +82,22 @@ ReplayPipeline::ReplayPipeline(const AppConfig& config, const ReplayPipelineOpti
   for (auto* v : {&series_.n_3d, &series_.n_2d_left, &series_.n_2d_right}) v->reserve(options.report_frames);
 }
 
-ReplayPipeline::~ReplayPipeline() { delete times_; }
+ReplayPipeline::~ReplayPipeline() {
+  try {
+    vio_.set_backend_executor(nullptr);  // what is queued runs now, while this object still exists
+  } catch (...) {
+    // A back-end error not collected by end_of_input(): nothing is left to report it to.
+  }
+  delete times_;
+}
+
+void ReplayPipeline::end_of_input() {
+  const auto start = std::chrono::steady_clock::now();
+  const double cpu_start_s = thread_cpu_s();
+  vio_.flush();
+  summary_.processing_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  summary_.processing_cpu_s += thread_cpu_s() - cpu_start_s;
+}
 
 void ReplayPipeline::note_time(std::int64_t t_ns) {
   if (first_t_ns_ < 0) first_t_ns_ = t_ns;
@@ -101,6 +118,10 @@ void ReplayPipeline::on_imu(const ImuSample& sample) {
 
 void ReplayPipeline::on_stereo(const StereoFrame& frame) {
   const bool steady = vio_.counters().frames >= options_.steady_state_from_frame;
+  if (steady && !steady_seen_) {
+    steady_seen_ = true;
+    if (backend_ != nullptr) backend_allocs_at_steady_ = backend_->allocations();
+  }
   AllocScope allocs;
   const auto start = std::chrono::steady_clock::now();
   const double cpu_start_s = thread_cpu_s();
@@ -177,6 +198,10 @@ void ReplayPipeline::accumulate_features(const FrameFeatures& f) {
 
 ReplaySummary ReplayPipeline::summary() const {
   ReplaySummary s = summary_;
+  if (backend_ != nullptr) {
+    s.processing_cpu_s += backend_->cpu_s();
+    if (steady_seen_) s.heap_allocs_steady_state += backend_->allocations() - backend_allocs_at_steady_;
+  }
   const VioPipelineCounters& c = vio_.counters();
   s.frames = c.frames;
   s.imu_samples = c.imu_samples;
@@ -202,6 +227,7 @@ void ReplayPipeline::write_stats(JsonWriter& w) const {
   w.value("duration_s", s.duration_s);
   w.value("processing_s", s.processing_s, 4);
   w.value("processing_cpu_s", s.processing_cpu_s, 4);
+  write_threads(w);
   write_timing_stats(w);
   w.begin_object("features")
       .value("mean_3d", s.mean_3d, 5)
@@ -237,9 +263,19 @@ void ReplayPipeline::write_timing_stats(JsonWriter& w) const {
   w.end_object();
 }
 
+void ReplayPipeline::write_threads(JsonWriter& w) const {
+  w.begin_object("threads").value("pipeline", backend_ != nullptr ? 2 : 1);
+  if (backend_ != nullptr) {
+    w.value("backend_cpu_s", backend_->cpu_s(), 4)
+        .value("backend_tasks", backend_->tasks())
+        .value("backend_full_waits", backend_->full_waits());
+  }
+  w.end_object();
+}
+
 void ReplayPipeline::write_memory_stats(JsonWriter& w) const {
   w.begin_object("memory")
-      .value("heap_allocs_steady_state", summary_.heap_allocs_steady_state)
+      .value("heap_allocs_steady_state", summary().heap_allocs_steady_state)
       .value("static_bytes", static_cast<std::uint64_t>(static_bytes_))
       .value("alloc_counter", alloc_counter_available())
       .begin_object("pools")

@@ -2,14 +2,17 @@
 // The board's wrapper around the core pipeline (core/pipeline/vio_pipeline.hpp) that a replay,
 // the live app and the sweep push measurements into: options from the AppConfig, the TUM pose
 // files, timing per stage, steady-state allocation accounting, the report's per-frame series,
-// stats.json and the printed summary. It owns no threads; the caller pushes in time order.
+// stats.json and the printed summary. The caller pushes in time order from one thread; with
+// two_core the estimator runs on a second thread the pipeline owns (board/host/backend_thread).
 
 #include <cstdint>
 #include <cstdio>
+#include <memory>
 #include <ostream>
 #include <vector>
 
 #include "board/config/app_config.hpp"
+#include "board/host/backend_thread.hpp"
 #include "board/host/tum_pose_sink.hpp"
 #include "core/common/measurement_sink.hpp"
 #include "core/estimator/estimator.hpp"
@@ -28,6 +31,9 @@ struct ReplayPipelineOptions {
   bool deterministic = false;
   std::size_t report_frames = 0;   // frames of per-frame series kept for report.html (reserved once)
   std::uint64_t steady_state_from_frame = 50;  // frames before this are warm-up for alloc counting
+  // The back end of frame k on a second thread while the front end of frame k+1 runs: the same
+  // trajectory, more frames per second on a board with two free cores. Not with estimate_td.
+  bool two_core = false;
 };
 
 struct ReplaySummary {
@@ -35,7 +41,7 @@ struct ReplaySummary {
   std::uint64_t imu_samples = 0;
   double duration_s = 0.0;    // data time from the first to the last measurement
   double processing_s = 0.0;  // time spent inside the pipeline (excludes reading and decoding)
-  double processing_cpu_s = 0.0;  // CPU time of the pipeline's thread inside it (one core's work)
+  double processing_cpu_s = 0.0;  // CPU time of the pipeline inside it (one core's work; two_core: both threads')
   std::uint64_t heap_allocs_steady_state = 0;
   // Front end, averaged over processed frames.
   double mean_3d = 0.0;
@@ -57,8 +63,9 @@ class ReplayPipeline final : public MeasurementSink, private FrameObserver {
 
   void on_imu(const ImuSample& sample) override;
   void on_stereo(const StereoFrame& frame) override;
-  // After the last measurement: what the camera-IMU offset still holds goes on.
-  void end_of_input() { vio_.flush(); }
+  // After the last measurement: what the camera-IMU offset still holds goes on, and (two_core)
+  // the back end finishes.
+  void end_of_input();
 
   std::uint64_t frames() const { return vio_.counters().frames; }
   void set_static_bytes(std::size_t bytes) { static_bytes_ = bytes; }
@@ -72,14 +79,20 @@ class ReplayPipeline final : public MeasurementSink, private FrameObserver {
   // Where the per-frame mode, velocity and biases go (CSV, TumPoseSink::state_header()).
   void set_state_output(std::FILE* file) { poses_.set_state_output(file); }
   // A live consumer of every pose besides the files (the MAVLink output); not owned.
-  void set_pose_consumer(PoseSink* sink) { fanout_.set(1, sink); }
+  void set_pose_consumer(PoseSink* sink) {
+    vio_.wait_backend();  // two_core: the fanout is the back end's thread's while it runs
+    fanout_.set(1, sink);
+  }
   // Keyframe images for later use (none by default); not owned.
   void set_keyframe_image_sink(KeyframeImageSink* sink) { vio_.set_keyframe_image_sink(sink); }
   // Keyframes leaving the window (none by default); not owned.
   void set_keyframe_sink(KeyframeSink* sink) { vio_.set_keyframe_sink(sink); }
   void set_relocation_link(RelocationLink* link) { vio_.set_relocation_link(link); }
   // A third consumer of every pose (loop closure's map-frame poses); not owned.
-  void set_map_pose_consumer(PoseSink* sink) { fanout_.set(2, sink); }
+  void set_map_pose_consumer(PoseSink* sink) {
+    vio_.wait_backend();
+    fanout_.set(2, sink);
+  }
   std::uint64_t poses_written() const { return poses_.poses_written(); }
   const StageTimes& stage_times() const { return *times_; }
   ReplaySummary summary() const;
@@ -107,6 +120,7 @@ class ReplayPipeline final : public MeasurementSink, private FrameObserver {
   void record_stage_times(const VioFrameRecord& frame);
   void record_series(const VioFrameRecord& rec, const StereoFrame& frame);
   void write_timing_stats(JsonWriter& w) const;
+  void write_threads(JsonWriter& w) const;
   void write_memory_stats(JsonWriter& w) const;
   void write_drops(JsonWriter& w, const ReplaySummary& s) const;
   void write_estimator_stats(JsonWriter& w) const;
@@ -124,6 +138,9 @@ class ReplayPipeline final : public MeasurementSink, private FrameObserver {
 
   TumPoseSink poses_;
   PoseFanout fanout_;  // poses_, then the consumer
+  std::unique_ptr<BackendThread> backend_;  // two_core only; outlives vio_'s tasks (declared first)
+  std::uint64_t backend_allocs_at_steady_ = 0;
+  bool steady_seen_ = false;
   VioPipeline vio_;
   double rig_td_s_ = 0.0;  // the configured camera-IMU offset (t_imu = t_cam + td)
   // Running sums for the summary.

@@ -377,4 +377,37 @@ TEST_CASE("umsvins replay --deterministic: two replays write the same trajectory
   CHECK(ta == tb);
 }
 
+TEST_CASE("umsvins replay --two-core: the same trajectory and states to the byte as one core, 0 allocations",
+          "[cli][sim][slow]") {
+  const std::string dir = test::make_temp_dir("cli_two_core");
+  const Run sim = run({"simulate", "--trajectory", test::groundtruth_dir() + "/V101_GT.txt", "--duration", "4",
+                       "--seed", "3", "--out", dir + "/ds", "--quiet"});
+  INFO(sim.err);
+  REQUIRE(sim.code == kExitOk);
+  const Run one = run({"replay", dir + "/ds", "--out", dir + "/one", "--quiet", "--deterministic"});
+  const Run two = run({"replay", dir + "/ds", "--out", dir + "/two", "--quiet", "--deterministic", "--two-core"});
+  INFO(one.err << two.err);
+  REQUIRE(one.code == kExitOk);
+  REQUIRE(two.code == kExitOk);
+  const std::string t1 = read_all(dir + "/one/trajectory.tum");
+  CHECK(std::count(t1.begin(), t1.end(), '\n') >= 70);  // 20 Hz for 4 s: the estimator ran
+  CHECK(t1 == read_all(dir + "/two/trajectory.tum"));
+  CHECK(read_all(dir + "/one/states.csv") == read_all(dir + "/two/states.csv"));
+  const std::string stats = read_all(dir + "/two/stats.json");
+  CHECK(stats.find("\"pipeline\": 2") != std::string::npos);
+  CHECK(stats.find("\"backend_tasks\": ") != std::string::npos);
+  // Steady state from the 50th frame: both threads' allocations are counted.
+  CHECK(stats.find("\"heap_allocs_steady_state\": 0,") != std::string::npos);
+  CHECK(read_all(dir + "/one/stats.json").find("\"pipeline\": 1") != std::string::npos);
+
+  // An estimated camera-IMU offset stamps frame k+1 with frame k's estimate: no overlap possible.
+  {
+    std::ofstream cfg(dir + "/td.yaml");
+    cfg << "%YAML:1.0\nestimate_td: 1\n";
+  }
+  const Run td = run({"replay", dir + "/ds", "--out", dir + "/td", "--quiet", "--two-core", "--config", dir + "/td.yaml"});
+  CHECK(td.code != kExitOk);
+  CHECK(td.err.find("estimate_td") != std::string::npos);
+}
+
 }  // namespace ums::cli
