@@ -259,8 +259,18 @@ def case_pty_57600(args):
     # the link must drop packets. Which ones (ODOMETRY or the vision messages) depends on where
     # the budget stands when each comes, i.e. on scheduling: only the count is asserted.
     compare_with_log(msgs, summary, out, expect_drops=None)
-    link = stats_of(out)["mavlink"]
-    check(link["link_packets_dropped"] > 0, "link drops: %d packets (expected some)" % link["link_packets_dropped"])
+    stats = stats_of(out)
+    link = stats["mavlink"]
+    # The drops need the offered rate: a replay slower than real time (a sanitized build runs the
+    # micro sequence at 1/16 of it) offers 8.9 kB/s times its real-time ratio. Above 0.8 of real
+    # time that is >= 7.1 kB/s against 5.8: drops are certain. Below, the wire may keep up.
+    realtime_ratio = stats["duration_s"] / max(stats["wall_s"], 1e-9)
+    if realtime_ratio >= 0.8:
+        check(link["link_packets_dropped"] > 0, "link drops: %d packets (expected some at %.2f of real time)" %
+              (link["link_packets_dropped"], realtime_ratio))
+    else:
+        print("pty-57600: the replay ran at %.2f of real time: %d packets dropped, the drop check needs >= 0.8" %
+              (realtime_ratio, link["link_packets_dropped"]))
     check(link["link_bytes_sent"] == summary["bytes"],
           "bytes through the pty %d = bytes the link sent %d (only whole frames)" % (summary["bytes"], link["link_bytes_sent"]))
 
