@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "core/math/so3.hpp"
+#include "hal/sim/random_vector.hpp"
 
 namespace ums::sim {
 namespace {
@@ -63,9 +64,9 @@ ImuTrack generate_decimated_imu(const Se3Spline& spline, std::int64_t t_begin_ns
   ImuTrack track;
   std::mt19937_64 rng(o.seed * 0xD1B54A32D192ED03ULL + 29);
   std::normal_distribution<double> n01(0.0, 1.0);
-  auto nvec = [&] { return Eigen::Vector3d(n01(rng), n01(rng), n01(rng)); };
+  auto nvec = [&] { return draw_vector3([&] { return n01(rng); }); };
   std::uniform_real_distribution<double> u11(-1.0, 1.0);
-  auto uvec = [&] { return Eigen::Vector3d(u11(rng), u11(rng), u11(rng)); };
+  auto uvec = [&] { return draw_vector3([&] { return u11(rng); }); };
   const std::int64_t dt_ns = static_cast<std::int64_t>(std::llround(1e9 / o.output_rate_hz));
   const double dt = static_cast<double>(dt_ns) * 1e-9;
   const int m = std::max(1, static_cast<int>(std::lround(o.internal_rate_hz / o.output_rate_hz)));

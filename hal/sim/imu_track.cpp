@@ -1,4 +1,5 @@
 #include "hal/sim/imu_track.hpp"
+#include "hal/sim/random_vector.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -8,7 +9,7 @@ namespace ums::sim {
 void add_impulses(const std::vector<double>& yaw_rate, double imu_rate_hz, double span_s, std::mt19937_64& rng,
                   std::normal_distribution<double>& n01, ImuTrack* track) {
   if (track->samples.empty()) return;
-  auto nvec = [&] { return Eigen::Vector3d(n01(rng), n01(rng), n01(rng)); };
+  auto nvec = [&] { return draw_vector3([&] { return n01(rng); }); };
   const std::size_t want = static_cast<std::size_t>(std::max(3.0, std::floor(span_s / 10.0)));
   std::vector<std::size_t> order(yaw_rate.size());
   for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;

@@ -15,6 +15,7 @@
 #include "hal/sim/car_route.hpp"
 #include "hal/sim/decimated_imu.hpp"
 #include "hal/replay/euroc_writer.hpp"
+#include "hal/sim/random_vector.hpp"
 
 namespace ums::sim {
 namespace {
@@ -413,7 +414,7 @@ ImuTrack generate_imu(const SimTrajectory& tr, const ImuCalibration& imu, const 
   ImuTrack track;
   std::mt19937_64 rng(o.seed * 0x9E3779B97F4A7C15ULL + 17);
   std::normal_distribution<double> n01(0.0, 1.0);
-  auto nvec = [&] { return Eigen::Vector3d(n01(rng), n01(rng), n01(rng)); };
+  auto nvec = [&] { return draw_vector3([&] { return n01(rng); }); };
   const double dt = 1.0 / o.imu_rate_hz;
   const std::int64_t dt_ns = static_cast<std::int64_t>(std::llround(1e9 / o.imu_rate_hz));
   // Discrete white noise std = density * sqrt(rate); bias random walk step = rw * sqrt(dt).
@@ -466,8 +467,8 @@ RigCalibration written_calibration(const RigCalibration& truth, const SimOptions
   if (o.extrinsic_error_deg == 0.0 && o.extrinsic_error_m == 0.0) return rig;
   std::mt19937_64 rng(o.seed * 0x2545F4914F6CDD1DULL + 29);
   std::normal_distribution<double> n01(0.0, 1.0);
-  const Eigen::Vector3d axis = Eigen::Vector3d(n01(rng), n01(rng), n01(rng)).normalized();
-  const Eigen::Vector3d dir = Eigen::Vector3d(n01(rng), n01(rng), n01(rng)).normalized();
+  const Eigen::Vector3d axis = draw_vector3([&] { return n01(rng); }).normalized();
+  const Eigen::Vector3d dir = draw_vector3([&] { return n01(rng); }).normalized();
   // The same body-side change for both cameras: T_b_c' = E * T_b_c keeps T_c0_c1.
   Eigen::Isometry3d E = Eigen::Isometry3d::Identity();
   E.linear() = Eigen::AngleAxisd(o.extrinsic_error_deg * M_PI / 180.0, axis).toRotationMatrix();
