@@ -33,7 +33,6 @@ CornerDetector::CornerDetector(int width, int height) : width_(width), height_(h
   response_.assign(n, 0.0f);
   rows_.assign(static_cast<std::size_t>(12 * width), 0.0f);
   mask_.assign(n, 0);
-  flags_.assign(static_cast<std::size_t>(width), 0);
   heap_.reserve(capacity::kMaxCornerCandidates);
 }
 
@@ -59,6 +58,13 @@ bool CornerDetector::is_free(const Eigen::Vector2f& p) const {
 }
 
 namespace {
+
+// True when one of the 8 bytes at p is 0.
+bool has_zero_byte(const std::uint8_t* p) {
+  std::uint64_t v;
+  std::memcpy(&v, p, sizeof v);
+  return ((v - 0x0101010101010101ULL) & ~v & 0x8080808080808080ULL) != 0;
+}
 
 // out[x] = a[x] + b[x] + c[x] for x in 1 .. w-2 (separate arrays: vectorises).
 void sum3_rows(const float* __restrict a, const float* __restrict b, const float* __restrict c, float* __restrict out, int w) {
@@ -121,52 +127,48 @@ float CornerDetector::compute_response(const ImageView& img, int b) {
   return max_r;
 }
 
+// The strongest kMaxCornerCandidates candidates stay, in a min-heap by score.
+void CornerDetector::offer(const Candidate& c) {
+  if (heap_.size() < capacity::kMaxCornerCandidates) {
+    heap_.push_back(c);  // within reserved capacity: no allocation
+    std::push_heap(heap_.begin(), heap_.end(), scores_greater);
+  } else if (c.score > heap_.front().score) {
+    std::pop_heap(heap_.begin(), heap_.end(), scores_greater);
+    heap_.back() = c;
+    std::push_heap(heap_.begin(), heap_.end(), scores_greater);
+  }
+}
+
 int CornerDetector::detect(const ImageView& image, int max_new, const DetectorOptions& options, Eigen::Vector2f* out_px) {
   if (max_new <= 0 || !image.valid() || image.width != width_ || image.height != height_) return 0;
   const int w = width_, h = height_;
   const int b = std::max(options.border_px, 3);
   const float max_r = compute_response(image, b);
   const float thresh = std::max(options.min_response, options.quality_level * max_r);
-  auto greater = [](const Candidate& l, const Candidate& r) { return l.score > r.score; };  // min-heap
   heap_.clear();
-  const std::size_t cap = capacity::kMaxCornerCandidates;
   for (int y = b; y < h - b; ++y) {
     const float* rm = response_.data() + static_cast<std::size_t>(y - 1) * static_cast<std::size_t>(w);
     const float* r0 = rm + w;
     const float* rp = r0 + w;
     const std::uint8_t* m = mask_.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(w);
-    // Branch-free pass over the row (vectorises): free, above the threshold and a 3x3 maximum,
-    // ties going to the first pixel in scan order. The candidates then enter the heap in scan
-    // order, exactly as a per-pixel test would push them.
-    std::uint8_t* __restrict f = flags_.data();
-    for (int x = b; x < w - b; ++x) {
-      const float v = r0[x];
-      f[x] = static_cast<std::uint8_t>((m[x] == 0) & (v >= thresh) & (v > rm[x - 1]) & (v > rm[x]) & (v > rm[x + 1]) &
-                                       (v > r0[x - 1]) & (v >= r0[x + 1]) & (v >= rp[x - 1]) & (v >= rp[x]) &
-                                       (v >= rp[x + 1]));
-    }
-    for (int x = b; x < w - b; ++x) {
-      if (x + 8 <= w - b) {
-        std::uint64_t f8;
-        std::memcpy(&f8, f + x, sizeof(f8));
-        if (f8 == 0) {
-          x += 7;
+    // Free, above the threshold and a 3x3 maximum, ties going to the first pixel in scan order;
+    // the candidates enter the heap in scan order. Most of the image is covered by the disks
+    // around the features already tracked: 8-pixel groups without a free pixel are skipped on
+    // the mask alone.
+    for (int x0 = b; x0 < w - b; x0 += 8) {
+      const int x1 = std::min(x0 + 8, w - b);
+      if (x1 - x0 == 8 && !has_zero_byte(m + x0)) continue;
+      for (int x = x0; x < x1; ++x) {
+        const float v = r0[x];
+        if (m[x] != 0 || !(v >= thresh && v > rm[x - 1] && v > rm[x] && v > rm[x + 1] && v > r0[x - 1] &&
+                           v >= r0[x + 1] && v >= rp[x - 1] && v >= rp[x] && v >= rp[x + 1])) {
           continue;
         }
-      }
-      if (f[x] == 0) continue;
-      const float v = r0[x];
-      if (heap_.size() < cap) {
-        heap_.push_back(Candidate{v, x, y});  // within reserved capacity: no allocation
-        std::push_heap(heap_.begin(), heap_.end(), greater);
-      } else if (v > heap_.front().score) {
-        std::pop_heap(heap_.begin(), heap_.end(), greater);
-        heap_.back() = Candidate{v, x, y};
-        std::push_heap(heap_.begin(), heap_.end(), greater);
+        offer(Candidate{v, x, y});
       }
     }
   }
-  std::sort_heap(heap_.begin(), heap_.end(), greater);  // descending score
+  std::sort_heap(heap_.begin(), heap_.end(), scores_greater);  // descending score
   int count = 0;
   for (const Candidate& c : heap_) {
     if (count >= max_new) break;

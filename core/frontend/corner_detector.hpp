@@ -59,6 +59,8 @@ class CornerDetector {
     float score;
     int x, y;
   };
+  static bool scores_greater(const Candidate& l, const Candidate& r) { return l.score > r.score; }
+  void offer(const Candidate& c);  // into the bounded min-heap of the strongest
   // Fills response_ and returns its maximum over pixels at least b from the image edge.
   float compute_response(const ImageView& image, int b);
 
@@ -67,7 +69,6 @@ class CornerDetector {
   std::vector<float> rows_;  // 3 rolling rows of Ixx, Ixy, Iyy products (9 * width), then their
                              // vertical 3-row sums (3 * width)
   std::vector<std::uint8_t> mask_;
-  std::vector<std::uint8_t> flags_;  // one row: 1 where a pixel is a free 3x3 maximum above the threshold
   std::vector<Candidate> heap_;  // capacity::kMaxCornerCandidates, used as a bounded min-heap
 };
 
