@@ -34,7 +34,10 @@ Eigen::Vector3d draw_drift_end(double drift, std::mt19937_64& rng) {
   std::uniform_real_distribution<double> mag(0.5, 1.0);
   std::bernoulli_distribution sign(0.5);
   Eigen::Vector3d d;
-  for (int i = 0; i < 3; ++i) d(i) = (sign(rng) ? 1.0 : -1.0) * drift * mag(rng);
+  for (int i = 0; i < 3; ++i) {
+    const double s = sign(rng) ? 1.0 : -1.0;  // sign, then size: one draw per statement
+    d(i) = s * drift * mag(rng);
+  }
   return d;
 }
 

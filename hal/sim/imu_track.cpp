@@ -22,8 +22,12 @@ void add_impulses(const std::vector<double>& yaw_rate, double imu_rate_hz, doubl
     for (std::size_t j : track->impulse_index) far = far && (idx > j ? idx - j : j - idx) >= sep;
     if (!far) continue;
     track->impulse_index.push_back(idx);
-    track->samples[idx].accel_m_s2 += ua(rng) * nvec().normalized();
-    track->samples[idx].gyro_rad_s += ug(rng) * nvec().normalized();
+    // Direction, then size: the draws in one statement each (random_vector.hpp says why), in the
+    // order of the datasets made so far.
+    const Eigen::Vector3d accel_dir = nvec().normalized();
+    track->samples[idx].accel_m_s2 += ua(rng) * accel_dir;
+    const Eigen::Vector3d gyro_dir = nvec().normalized();
+    track->samples[idx].gyro_rad_s += ug(rng) * gyro_dir;
   }
   std::sort(track->impulse_index.begin(), track->impulse_index.end());
 }

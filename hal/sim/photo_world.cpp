@@ -38,8 +38,12 @@ void place_boxes(const std::vector<Eigen::Vector3d>& path_w, const PhotoWorldOpt
     const double side = pillar ? rng.uniform(0.3, 0.8) : 0.0;
     // Mostly small boxes, every third one large (crates, machines).
     const double big = placed % 3 == 0 ? 3.0 : 1.2;
-    const Eigen::Vector3d size = pillar ? Eigen::Vector3d(side, side, rhi.z() - rlo.z())
-                                        : Eigen::Vector3d(rng.uniform(0.3, big), rng.uniform(0.3, big), rng.uniform(0.3, 0.5 + big / 1.5));
+    Eigen::Vector3d size(side, side, rhi.z() - rlo.z());
+    if (!pillar) {  // one draw per statement, z before y before x (random_vector.hpp says why)
+      size.z() = rng.uniform(0.3, 0.5 + big / 1.5);
+      size.y() = rng.uniform(0.3, big);
+      size.x() = rng.uniform(0.3, big);
+    }
     const Eigen::Vector3d& anchor = path_w[static_cast<std::size_t>(rng.uniform(0.0, 1.0) * static_cast<double>(path_w.size() - 1))];
     const double heading = rng.uniform(0.0, 2.0 * M_PI), dist = rng.uniform(o.box_distance_min_m, o.box_distance_max_m);
     Eigen::Vector3d lo(anchor.x() + dist * std::cos(heading) - size.x() / 2, anchor.y() + dist * std::sin(heading) - size.y() / 2, rlo.z());

@@ -2,7 +2,8 @@
 // Three random draws as a vector, in a fixed order. Eigen::Vector3d(d(), d(), d()) leaves the
 // order to the compiler (function arguments are unsequenced): GCC on x86-64 drew z first, GCC on
 // aarch64 and clang x first, so the same seed rendered different flights. The order here is z, y,
-// x, the one the project's x86-64 datasets and pinned hashes were made with.
+// x, the one the project's x86-64 datasets and pinned hashes were made with. Elsewhere in hal/sim
+// the same rule: one random draw per statement (or per declarator), in that historical order.
 
 #include <Eigen/Core>
 

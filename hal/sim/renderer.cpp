@@ -164,11 +164,13 @@ World make_world(const std::vector<Eigen::Vector3d>& path_w, const WorldOptions&
   };
   int placed = 0;
   for (int attempt = 0; attempt < 400 && placed < o.boxes; ++attempt) {
-    const Eigen::Vector3d size(uni(0.4, 1.2), uni(0.4, 1.2), uni(0.5, 1.8));
+    // One draw per statement, z before y before x (random_vector.hpp says why).
+    const double size_z = uni(0.5, 1.8), size_y = uni(0.4, 1.2), size_x = uni(0.4, 1.2);
+    const Eigen::Vector3d size(size_x, size_y, size_z);
     const Eigen::Vector3d rlo = w.room_lo.cast<double>(), rhi = w.room_hi.cast<double>();
-    const Eigen::Vector3d c(uni(rlo.x() + 0.3 + size.x() / 2, rhi.x() - 0.3 - size.x() / 2),
-                            uni(rlo.y() + 0.3 + size.y() / 2, rhi.y() - 0.3 - size.y() / 2),
-                            rlo.z() + size.z() / 2);
+    const double cy = uni(rlo.y() + 0.3 + size.y() / 2, rhi.y() - 0.3 - size.y() / 2);
+    const double cx = uni(rlo.x() + 0.3 + size.x() / 2, rhi.x() - 0.3 - size.x() / 2);
+    const Eigen::Vector3d c(cx, cy, rlo.z() + size.z() / 2);
     const Eigen::Vector3d blo = c - size / 2, bhi = c + size / 2;
     bool clear = true;
     for (std::size_t i = 0; i < path_w.size() && clear; i += 2) {
