@@ -27,7 +27,8 @@ usage: umsvins <command> [options]
       --no-tight-relocation: loops keep the verifier's measurement (no refinement in the window).
       --deterministic: solver rounds bounded by iterations, not wall time (same result anywhere).
       --two-core: the estimator on a second thread, overlapping the next frame's front end (the
-      same trajectory; more frames per second where two cores are free; not with estimate_td).
+      trajectory a single thread gives, to the byte with --deterministic; more frames per second
+      where two cores are free; not with estimate_td).
       --fault: sensor faults on the way in (docs/robustness.md): imu-gap, imu-nan, imu-huge,
       imu-dup, imu-swap, frame-gap, frame-drop (PARAM probability), frame-freeze, frame-dup,
       right-lost, blackout, clock-jump (PARAM s), images-end; counted in stats.json "faults".

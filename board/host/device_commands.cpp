@@ -262,6 +262,7 @@ int run_live(const std::vector<std::string>& argv, std::ostream& out, std::ostre
   std::unique_ptr<LoopSession> loop = loop_from_args(args, config, out_dir, LoopThreading{false, QueueFull::kDrop});
   if (loop != nullptr) loop->attach(pipeline);
   attach_mavlink(mavlink.get(), loop.get(), pipeline);
+  const BackendStopper stop_backend_first{&pipeline};  // --two-core: before loop and mavlink go
 
   const ProducerResult producer = run_threads(*src, *bridge, pipeline, seconds);
   pipeline.end_of_input();

@@ -411,6 +411,7 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
       pipeline.has_estimator() ? loop_from_args(args, config, out_dir, loop_threading) : nullptr;
   if (loop != nullptr) loop->attach(pipeline);
   attach_mavlink(mavlink.get(), loop.get(), pipeline);
+  const BackendStopper stop_backend_first{&pipeline};  // --two-core: before loop and mavlink go
 
   std::unique_ptr<hal::FaultInjector> faults = faults_from_args(args, &pipeline);
   const StreamResult run = stream(reader, pipeline, faults.get(), args.has("realtime"), args.has("quiet"), err);

@@ -82,13 +82,16 @@ ReplayPipeline::ReplayPipeline(const AppConfig& config, const ReplayPipelineOpti
   for (auto* v : {&series_.n_3d, &series_.n_2d_left, &series_.n_2d_right}) v->reserve(options.report_frames);
 }
 
-ReplayPipeline::~ReplayPipeline() {
+ReplayPipeline::~ReplayPipeline() { stop_backend(); }  // what is queued runs while this object exists
+
+BackendStopper::~BackendStopper() { pipeline->stop_backend(); }
+
+void ReplayPipeline::stop_backend() noexcept {
   try {
-    vio_.set_backend_executor(nullptr);  // what is queued runs now, while this object still exists
+    vio_.set_backend_executor(nullptr);
   } catch (...) {
-    // A back-end error not collected by end_of_input(): nothing is left to report it to.
+    // A back-end error not collected by end_of_input(): the caller is already unwinding.
   }
-  delete times_;
 }
 
 void ReplayPipeline::end_of_input() {
@@ -120,7 +123,10 @@ void ReplayPipeline::on_stereo(const StereoFrame& frame) {
   const bool steady = vio_.counters().frames >= options_.steady_state_from_frame;
   if (steady && !steady_seen_) {
     steady_seen_ = true;
-    if (backend_ != nullptr) backend_allocs_at_steady_ = backend_->allocations();
+    if (backend_ != nullptr) {
+      vio_.wait_backend();  // the warm-up frames' back end is done: its allocations are warm-up's
+      backend_allocs_at_steady_ = backend_->allocations();
+    }
   }
   AllocScope allocs;
   const auto start = std::chrono::steady_clock::now();

@@ -31,8 +31,9 @@ struct ReplayPipelineOptions {
   bool deterministic = false;
   std::size_t report_frames = 0;   // frames of per-frame series kept for report.html (reserved once)
   std::uint64_t steady_state_from_frame = 50;  // frames before this are warm-up for alloc counting
-  // The back end of frame k on a second thread while the front end of frame k+1 runs: the same
-  // trajectory, more frames per second on a board with two free cores. Not with estimate_td.
+  // The back end of frame k on a second thread while the front end of frame k+1 runs: the
+  // estimator gets the same calls in the same order (the same trajectory to the byte with
+  // `deterministic`), more frames per second on a board with two free cores. Not with estimate_td.
   bool two_core = false;
 };
 
@@ -54,6 +55,15 @@ struct ReplaySummary {
   std::uint64_t saturated_samples = 0;         // IMU samples the saturation element clipped
 };
 
+class ReplayPipeline;
+
+// Stops a pipeline's back-end thread when a scope ends, also by an exception: declared after the
+// sinks the pipeline borrows (MAVLink, loop closure), it lets the queued tasks run before they die.
+struct BackendStopper {
+  ReplayPipeline* pipeline;
+  ~BackendStopper();
+};
+
 class ReplayPipeline final : public MeasurementSink, private FrameObserver {
  public:
   ReplayPipeline(const AppConfig& config, const ReplayPipelineOptions& options);
@@ -66,6 +76,9 @@ class ReplayPipeline final : public MeasurementSink, private FrameObserver {
   // After the last measurement: what the camera-IMU offset still holds goes on, and (two_core)
   // the back end finishes.
   void end_of_input();
+  // Runs what the back end's thread still holds and returns to one thread, never throwing: for a
+  // caller unwinding after an error, before the sinks it lent (MAVLink, loop closure) are destroyed.
+  void stop_backend() noexcept;
 
   std::uint64_t frames() const { return vio_.counters().frames; }
   void set_static_bytes(std::size_t bytes) { static_bytes_ = bytes; }
@@ -73,11 +86,20 @@ class ReplayPipeline final : public MeasurementSink, private FrameObserver {
   const Estimator* estimator() const { return vio_.estimator(); }
   // Where one body pose per frame goes (TUM: t_s x y z qx qy qz qw), written as frames are
   // processed; nullptr: nowhere. The caller owns the file.
-  void set_trajectory_output(std::FILE* file) { poses_.set_trajectory_output(file); }
+  void set_trajectory_output(std::FILE* file) {
+    vio_.wait_backend();  // two_core: poses_ is the back end's thread's while it runs
+    poses_.set_trajectory_output(file);
+  }
   // Where the IMU-rate pose goes (same format, one line per IMU sample once a pose exists).
-  void set_imu_pose_output(std::FILE* file) { poses_.set_imu_pose_output(file); }
+  void set_imu_pose_output(std::FILE* file) {
+    vio_.wait_backend();
+    poses_.set_imu_pose_output(file);
+  }
   // Where the per-frame mode, velocity and biases go (CSV, TumPoseSink::state_header()).
-  void set_state_output(std::FILE* file) { poses_.set_state_output(file); }
+  void set_state_output(std::FILE* file) {
+    vio_.wait_backend();
+    poses_.set_state_output(file);
+  }
   // A live consumer of every pose besides the files (the MAVLink output); not owned.
   void set_pose_consumer(PoseSink* sink) {
     vio_.wait_backend();  // two_core: the fanout is the back end's thread's while it runs
@@ -131,7 +153,7 @@ class ReplayPipeline final : public MeasurementSink, private FrameObserver {
   void accumulate_features(const FrameFeatures& f);
 
   ReplayPipelineOptions options_;
-  StageTimes* times_;  // large fixed windows: allocated once here, never per frame
+  std::unique_ptr<StageTimes> times_;  // large fixed windows: allocated once here, never per frame
   ReplaySummary summary_;  // the times and allocations measured here; counts come from vio_
   std::int64_t first_t_ns_ = -1;
   std::int64_t last_t_ns_ = -1;

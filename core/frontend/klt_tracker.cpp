@@ -267,6 +267,7 @@ Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels,
     const Eigen::Vector2f p = p_prev * scale;
 
     template_block.sample(I, p.x() - static_cast<float>(half + 1), p.y() - static_cast<float>(half + 1), ne, tmpl_ext);
+    std::fill(tmpl_ext + ne * ne, tmpl_ext + ne * ne + kLanes, 0.0f);  // read by the last row's spare lanes
     template_and_gradients(tmpl_ext, n, tmpl, gx, gy);
     const GradientSums gs = gradient_sums(gx, gy, nn);
     const float gxx = gs.gxx, gxy = gs.gxy, gyy = gs.gyy;

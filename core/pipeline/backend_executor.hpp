@@ -14,8 +14,9 @@ class BackendExecutor {
   using Task = void (*)(void* context, std::uint32_t arg);
 
   virtual ~BackendExecutor() = default;
-  // Runs task(context, arg) after every task submitted before it, one at a time. May block while
-  // capacity::kBackendTasks tasks wait. Rethrows (once) an exception a task threw. Allocates nothing.
+  // Runs task(context, arg) after every task submitted before it, one at a time. Never holds more
+  // than capacity::kBackendTasks tasks waiting (blocks instead, or runs some): VioPipeline reuses
+  // its IMU task entries on that bound. Rethrows (once) an exception a task threw. Allocates nothing.
   virtual void submit(Task task, void* context, std::uint32_t arg) = 0;
   // Returns once every task submitted so far has run; rethrows (once) an exception a task threw.
   virtual void wait_idle() = 0;

@@ -92,12 +92,14 @@ World make_photo_world(const std::vector<Eigen::Vector3d>& path_w, const PhotoWo
   }
   Rng rng{0xF07057ULL + 1000003ULL * o.seed};
   World w;
-  const Eigen::Vector3d below(rng.uniform(o.wall_distance_min_m, o.wall_distance_max_m),
-                              rng.uniform(o.wall_distance_min_m, o.wall_distance_max_m),
-                              rng.uniform(o.floor_below_min_m, o.floor_below_max_m));
-  const Eigen::Vector3d above(rng.uniform(o.wall_distance_min_m, o.wall_distance_max_m),
-                              rng.uniform(o.wall_distance_min_m, o.wall_distance_max_m),
-                              rng.uniform(o.ceiling_above_min_m, o.ceiling_above_max_m));
+  // One draw per statement, z before y before x (random_vector.hpp says why).
+  Eigen::Vector3d below, above;
+  below.z() = rng.uniform(o.floor_below_min_m, o.floor_below_max_m);
+  below.y() = rng.uniform(o.wall_distance_min_m, o.wall_distance_max_m);
+  below.x() = rng.uniform(o.wall_distance_min_m, o.wall_distance_max_m);
+  above.z() = rng.uniform(o.ceiling_above_min_m, o.ceiling_above_max_m);
+  above.y() = rng.uniform(o.wall_distance_min_m, o.wall_distance_max_m);
+  above.x() = rng.uniform(o.wall_distance_min_m, o.wall_distance_max_m);
   w.room_lo = (lo - below).cast<float>();
   w.room_hi = (hi + above).cast<float>();
   // Materials: 0..5 faces, 6 textureless, 7.. the boxes' pool.

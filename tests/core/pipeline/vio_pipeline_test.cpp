@@ -231,10 +231,8 @@ TEST_CASE("pipeline on the EuRoC micro sequence: a pose per frame with one, keyf
   CHECK(run.steady_allocations == 0);
 }
 
-// Samples that are no reading (NaN, 1e9 on every axis as from a glitching driver, -Inf) never
-// reach the estimator: they are dropped and counted, not ramped in by the slew limiter. The vehicle
-// rests in the micro sequence, so 0.1 s of each, at 1.5, 2.5 and 3.5 s, must leave the poses where
-// the clean run has them. (One run with all three: each run is 20 s under qemu.)
+// The back end as an executor's tasks (two cores): what comes out is what the inline pipeline
+// gives, bit for bit, although each frame's back end runs after the reader moved on.
 TEST_CASE("pipeline with a back-end executor: the same poses, keyframe images and records as inline, 0 allocations",
           "[pipeline]") {
   const Run inline_run = run_micro(0.0);
@@ -288,6 +286,10 @@ TEST_CASE("pipeline: a back-end executor is refused with estimate_td (frame k's 
   CHECK_NOTHROW(pipeline.set_backend_executor(nullptr));
 }
 
+// Samples that are no reading (NaN, 1e9 on every axis as from a glitching driver, -Inf) never
+// reach the estimator: they are dropped and counted, not ramped in by the slew limiter. The vehicle
+// rests in the micro sequence, so 0.1 s of each, at 1.5, 2.5 and 3.5 s, must leave the poses where
+// the clean run has them. (One run with all three: each run is 20 s under qemu.)
 TEST_CASE("pipeline: NaN and huge IMU samples are dropped and counted, the poses stay put", "[pipeline][slow]") {
   const Run clean = run_micro(0.0);
   const Run bad = run_micro(0.0, false,
