@@ -237,10 +237,13 @@ void sample_patch_bilinear(const ImageView& image, float x, float y, int n, floa
   block.sample(image, x, y, n, out);
 }
 
-Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels, const KltOptions& options,
-                 const Eigen::Vector2f& p_prev, Eigen::Vector2f* p_curr) {
-  constexpr int kMaxN = KltOptions::kMaxWindowPx;
-  constexpr int kMaxT = kMaxN + 2;
+namespace {
+
+// One klt_track call's buffers: the template with its gradients, the warped window and the pixel
+// blocks under both (stack, no allocation).
+struct KltWorkspace {
+  static constexpr int kMaxN = KltOptions::kMaxWindowPx;
+  static constexpr int kMaxT = kMaxN + 2;
   // + kLanes: template_and_gradients reads and writes whole vectors past the last row's end.
   alignas(16) float tmpl_ext[kMaxT * kMaxT + kLanes];
   alignas(16) float tmpl[kMaxN * kMaxN + kLanes];
@@ -248,12 +251,62 @@ Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels,
   alignas(16) float gy[kMaxN * kMaxN + kLanes];
   alignas(16) float warped[kMaxN * kMaxN];
   SourceBlock template_block, warped_block;  // the pixels under the template and under the window
+  GradientSums gs;
+};
 
-  const int n = options.window_px;
-  const int half = n / 2;
-  const int ne = n + 2;
-  const int nn = n * n;
+// Samples the template around p in I and its gradients into ws. False when the window is
+// untextured: the smallest eigenvalue of the mean structure tensor is below min_eigen.
+bool prepare_template(const ImageView& I, const Eigen::Vector2f& p, const KltOptions& options, KltWorkspace* ws) {
+  const int n = options.window_px, half = n / 2, ne = n + 2, nn = n * n;
   const float inv_area = 1.0f / static_cast<float>(nn);
+  ws->template_block.sample(I, p.x() - static_cast<float>(half + 1), p.y() - static_cast<float>(half + 1), ne, ws->tmpl_ext);
+  std::fill(ws->tmpl_ext + ne * ne, ws->tmpl_ext + ne * ne + kLanes, 0.0f);  // read by the last row's spare lanes
+  template_and_gradients(ws->tmpl_ext, n, ws->tmpl, ws->gx, ws->gy);
+  ws->gs = gradient_sums(ws->gx, ws->gy, nn);
+  const float a = ws->gs.gxx * inv_area, b = ws->gs.gxy * inv_area, c2 = ws->gs.gyy * inv_area;
+  const float min_eig = 0.5f * ((a + c2) - std::sqrt((a - c2) * (a - c2) + 4.0f * b * b));
+  return min_eig >= options.min_eigen && min_eig > 0.0f;
+}
+
+// Gauss-Newton iterations of one level from the carried displacement g: the flow nu on top of it.
+// False when the window left J entirely or the flow ran farther than the window reaches (it has
+// locked onto something else).
+bool iterate_level(const ImageView& J, const Eigen::Vector2f& p, const Eigen::Vector2f& g, const KltOptions& options,
+                   KltWorkspace* ws, Eigen::Vector2f* nu) {
+  const int n = options.window_px, half = n / 2, nn = n * n;
+  const float inv_area = 1.0f / static_cast<float>(nn);
+  const GradientSums& gs = ws->gs;
+  const float inv_det = 1.0f / (gs.gxx * gs.gyy - gs.gxy * gs.gxy);
+  nu->setZero();
+  for (int it = 0; it < options.max_iterations; ++it) {
+    const float qx = p.x() + g.x() + nu->x(), qy = p.y() + g.y() + nu->y();
+    if (!(qx > -static_cast<float>(half) && qy > -static_cast<float>(half) &&
+          qx < static_cast<float>(J.width + half) && qy < static_cast<float>(J.height + half))) {
+      return false;
+    }
+    ws->warped_block.sample(J, qx - static_cast<float>(half), qy - static_cast<float>(half), n, ws->warped);
+    // Intensity offset between the windows (exposure, or the two cameras' gains) removed:
+    // e = (T - mean T) - (J - mean J) = d - mean d with d = T - J, so
+    // sum e g = sum d g - mean(d) sum g (d is small near convergence: no cancellation).
+    const ErrorSums es = error_sums(ws->tmpl, ws->warped, ws->gx, ws->gy, nn);
+    const float mean_d = es.d * inv_area;
+    const float bx = es.dgx - mean_d * gs.gx;
+    const float by = es.dgy - mean_d * gs.gy;
+    const float ex = inv_det * (gs.gyy * bx - gs.gxy * by);
+    const float ey = inv_det * (gs.gxx * by - gs.gxy * bx);
+    nu->x() += ex;
+    nu->y() += ey;
+    if (ex * ex + ey * ey < options.epsilon_px * options.epsilon_px) break;
+  }
+  return nu->squaredNorm() <= static_cast<float>(half * half);
+}
+
+}  // namespace
+
+Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels, const KltOptions& options,
+                 const Eigen::Vector2f& p_prev, Eigen::Vector2f* p_curr) {
+  KltWorkspace ws;
+  const int half = options.window_px / 2;
   levels = std::min({levels, prev.levels(), curr.levels()});
   if (levels < 1 || !std::isfinite(p_curr->x()) || !std::isfinite(p_curr->y())) return Status::kNotConverged;
 
@@ -261,64 +314,20 @@ Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels,
   // Displacement (guess + flow) carried from level to level, in the current level's pixels.
   Eigen::Vector2f g = (*p_curr - p_prev) * top_scale;
   for (int level = levels - 1; level >= 0; --level) {
-    const float scale = 1.0f / static_cast<float>(1 << level);
-    const ImageView& I = prev.level(level);
-    const ImageView& J = curr.level(level);
-    const Eigen::Vector2f p = p_prev * scale;
-
-    template_block.sample(I, p.x() - static_cast<float>(half + 1), p.y() - static_cast<float>(half + 1), ne, tmpl_ext);
-    std::fill(tmpl_ext + ne * ne, tmpl_ext + ne * ne + kLanes, 0.0f);  // read by the last row's spare lanes
-    template_and_gradients(tmpl_ext, n, tmpl, gx, gy);
-    const GradientSums gs = gradient_sums(gx, gy, nn);
-    const float gxx = gs.gxx, gxy = gs.gxy, gyy = gs.gyy;
-    // Smallest eigenvalue of the mean structure tensor: an untextured window cannot be tracked.
-    const float a = gxx * inv_area, b = gxy * inv_area, c2 = gyy * inv_area;
-    const float min_eig = 0.5f * ((a + c2) - std::sqrt((a - c2) * (a - c2) + 4.0f * b * b));
+    const Eigen::Vector2f p = p_prev * (1.0f / static_cast<float>(1 << level));
     // A coarse level that cannot be used (blurred flat, or mostly outside a small image) is
     // skipped: the finer levels still refine the carried displacement. Level 0 must succeed.
-    const bool usable = min_eig >= options.min_eigen && min_eig > 0.0f;
-    if (!usable) {
+    if (!prepare_template(prev.level(level), p, options, &ws)) {
       if (level == 0) return Status::kNotConverged;
       g *= 2.0f;
       continue;
     }
-    const float det = gxx * gyy - gxy * gxy;
-    const float inv_det = 1.0f / det;
-
-    Eigen::Vector2f nu(0.0f, 0.0f);
-    bool left_image = false;
-    for (int it = 0; it < options.max_iterations; ++it) {
-      const float qx = p.x() + g.x() + nu.x(), qy = p.y() + g.y() + nu.y();
-      if (!(qx > -static_cast<float>(half) && qy > -static_cast<float>(half) &&
-            qx < static_cast<float>(J.width + half) && qy < static_cast<float>(J.height + half))) {
-        left_image = true;  // the window left the image entirely
-        break;
-      }
-      warped_block.sample(J, qx - static_cast<float>(half), qy - static_cast<float>(half), n, warped);
-      // Intensity offset between the windows (exposure, or the two cameras' gains) removed:
-      // e = (T - mean T) - (J - mean J) = d - mean d with d = T - J, so
-      // sum e g = sum d g - mean(d) sum g (d is small near convergence: no cancellation).
-      const ErrorSums es = error_sums(tmpl, warped, gx, gy, nn);
-      const float mean_d = es.d * inv_area;
-      const float bx = es.dgx - mean_d * gs.gx;
-      const float by = es.dgy - mean_d * gs.gy;
-      const float ex = inv_det * (gyy * bx - gxy * by);
-      const float ey = inv_det * (gxx * by - gxy * bx);
-      nu.x() += ex;
-      nu.y() += ey;
-      if (ex * ex + ey * ey < options.epsilon_px * options.epsilon_px) break;
-    }
-    // A level whose flow runs farther than the window reaches has locked onto something else.
-    const bool ran_away = !(nu.squaredNorm() <= static_cast<float>(half * half));
-    if (left_image || ran_away) {
+    Eigen::Vector2f nu;
+    if (!iterate_level(curr.level(level), p, g, options, &ws, &nu)) {
       if (level == 0) return Status::kNotConverged;
       nu.setZero();
     }
-    if (level > 0) {
-      g = 2.0f * (g + nu);
-    } else {
-      g += nu;
-    }
+    g = level > 0 ? Eigen::Vector2f(2.0f * (g + nu)) : Eigen::Vector2f(g + nu);
   }
   const Eigen::Vector2f result = p_prev + g;
   const ImageView& J0 = curr.level(0);
@@ -327,8 +336,10 @@ Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels,
     return Status::kNotConverged;
   }
   // Photometric check at level 0 (the template was sampled at level 0 in the last pass).
-  warped_block.sample(J0, result.x() - static_cast<float>(half), result.y() - static_cast<float>(half), n, warped);
-  if (!(mean_abs_error(tmpl, warped, nn) <= options.max_mean_abs_error)) return Status::kNotConverged;
+  ws.warped_block.sample(J0, result.x() - static_cast<float>(half), result.y() - static_cast<float>(half),
+                         options.window_px, ws.warped);
+  const int nn = options.window_px * options.window_px;
+  if (!(mean_abs_error(ws.tmpl, ws.warped, nn) <= options.max_mean_abs_error)) return Status::kNotConverged;
   *p_curr = result;
   return Status::kOk;
 }
