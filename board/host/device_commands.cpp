@@ -235,6 +235,12 @@ ProducerResult run_threads(LiveSource& src, d455::ThreadBridge& bridge, ReplayPi
   return result;
 }
 
+ReplayPipelineOptions live_pipeline_options(const Args& args) {
+  ReplayPipelineOptions o;
+  o.two_core = args.has("two-core");  // the estimator on a third thread
+  return o;
+}
+
 }  // namespace
 
 int run_live(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
@@ -251,9 +257,7 @@ int run_live(const std::vector<std::string>& argv, std::ostream& out, std::ostre
   std::filesystem::create_directories(out_dir);
 
   AllocScope startup_allocs;
-  ReplayPipelineOptions pipeline_options;
-  pipeline_options.two_core = args.has("two-core");  // the estimator on a third thread
-  ReplayPipeline pipeline(config, pipeline_options);
+  ReplayPipeline pipeline(config, live_pipeline_options(args));
   pipeline.set_static_bytes(static_cast<std::size_t>(startup_allocs.bytes()) + sizeof(ReplayPipeline));
   auto bridge = std::make_unique<d455::ThreadBridge>(config.rig.cam[0].width, config.rig.cam[0].height);
   LivePoseFiles files = open_pose_files(out_dir, pipeline);

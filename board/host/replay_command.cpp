@@ -194,7 +194,6 @@ void write_report(const std::string& dataset, const hal::EurocReader& reader, co
   if (!eval::write_report_html(data, path.string(), &error)) throw std::runtime_error(error);
 }
 
-
 // The estimate's files, open while the pipeline writes them.
 struct EstimateFiles {
   std::filesystem::path trajectory_path, states_path;
@@ -374,6 +373,15 @@ hal::EurocReaderOptions reader_options_of(const Args& args) {
   return o;
 }
 
+ReplayPipelineOptions pipeline_options_of(const Args& args, const hal::EurocReader& reader) {
+  ReplayPipelineOptions o;
+  o.frontend_only = args.has("frontend-only");
+  o.deterministic = args.has("deterministic");
+  o.two_core = args.has("two-core");
+  o.report_frames = reader.total_pairs_estimate() + 16;
+  return o;
+}
+
 }  // namespace
 
 int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
@@ -392,11 +400,7 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
   for (const std::string& w : warnings) err << "warning: " << w << "\n";
   std::filesystem::create_directories(out_dir);
 
-  ReplayPipelineOptions pipeline_options;
-  pipeline_options.frontend_only = args.has("frontend-only");
-  pipeline_options.deterministic = args.has("deterministic");
-  pipeline_options.two_core = args.has("two-core");
-  pipeline_options.report_frames = reader.total_pairs_estimate() + 16;
+  const ReplayPipelineOptions pipeline_options = pipeline_options_of(args, reader);
   // Start-up footprint: everything the pipeline allocates while it is built, plus itself.
   AllocScope startup_allocs;
   ReplayPipeline pipeline(config, pipeline_options);

@@ -106,8 +106,7 @@ void TimeAligner::hold_frame(const StereoFrame& f) {
       *view[c] = ImageView{};  // missing (a right-camera dropout)
       continue;
     }
-    for (int y = 0; y < v.height; ++y) std::memcpy(copy[c] + static_cast<std::size_t>(y) * v.width, v.row(y), v.width);
-    *view[c] = ImageView{copy[c], v.width, v.height, v.width};
+    *view[c] = copy_packed(v, copy[c]);
   }
   frame_held_ = true;
   ++counters_.frames_held;

@@ -169,11 +169,7 @@ void VioPipeline::copy_frame(const StereoFrame& frame, FrameSlot* slot) const {
   auto copy = [&](const ImageView& v, std::uint8_t* dst) {
     // A size beyond the calibration was refused by the front end: no pixels for the back end.
     if (!v.valid() || v.width > max_width_ || v.height > max_height_) return ImageView{};
-    for (int y = 0; y < v.height; ++y) {
-      std::memcpy(dst + static_cast<std::size_t>(y) * static_cast<std::size_t>(v.width), v.row(y),
-                  static_cast<std::size_t>(v.width));
-    }
-    return ImageView{dst, v.width, v.height, v.width};
+    return copy_packed(v, dst);
   };
   slot->frame.left = copy(frame.left, slot->pixels.get());
   slot->frame.right = copy(frame.right, slot->pixels.get() + image_bytes);
@@ -217,11 +213,7 @@ void VioPipeline::hand_on_settled(const EstimatorOutput& est, const StereoFrame&
   prev_id_ = kNoFrame;
   const ImageView& left = frame.left;
   if (!left.valid() || left.width > capacity::kMaxImageWidth || left.height > capacity::kMaxImageHeight) return;
-  for (int y = 0; y < left.height; ++y) {
-    std::memcpy(prev_left_.get() + static_cast<std::size_t>(y) * static_cast<std::size_t>(left.width), left.row(y),
-                static_cast<std::size_t>(left.width));
-  }
-  prev_view_ = ImageView{prev_left_.get(), left.width, left.height, left.width};
+  prev_view_ = copy_packed(left, prev_left_.get());
   *prev_features_ = *slots_[backend_slot_].features;
   prev_id_ = est.frame_id;
   prev_t_ns_ = est.t_ns;

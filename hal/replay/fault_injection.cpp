@@ -167,8 +167,7 @@ void FaultInjector::remember(const StereoFrame& frame) {
       frozen_view_[c] = ImageView{};
       continue;
     }
-    for (int y = 0; y < v.height; ++y) std::memcpy(frozen_[c].get() + static_cast<std::size_t>(y) * v.width, v.row(y), v.width);
-    frozen_view_[c] = ImageView{frozen_[c].get(), v.width, v.height, v.width};
+    frozen_view_[c] = copy_packed(v, frozen_[c].get());
   }
 }
 

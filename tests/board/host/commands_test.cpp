@@ -358,14 +358,23 @@ TEST_CASE("umsvins replay runs the front end on real EuRoC frames and writes sta
   CHECK(mean_3d >= 100.0);
 }
 
+namespace {
+
+// V1_01's profile from its start, seed 3, rendered into out.
+void render_v101(const std::string& out, const std::string& duration_s) {
+  const Run sim = run({"simulate", "--trajectory", test::groundtruth_dir() + "/V101_GT.txt", "--duration", duration_s,
+                       "--seed", "3", "--out", out, "--quiet"});
+  INFO(sim.err);
+  REQUIRE(sim.code == kExitOk);
+}
+
+}  // namespace
+
 TEST_CASE("umsvins replay --deterministic: two replays write the same trajectory to the byte", "[cli][sim][slow]") {
   // The cross-architecture check (scripts/determinism.sh) compares host and aarch64 runs; this is
   // its precondition on one machine: no wall clock, no uninitialised memory, no run-to-run state.
   const std::string dir = test::make_temp_dir("cli_deterministic");
-  const Run sim = run({"simulate", "--trajectory", test::groundtruth_dir() + "/V101_GT.txt", "--duration", "2.5",
-                       "--seed", "3", "--out", dir + "/ds", "--quiet"});
-  INFO(sim.err);
-  REQUIRE(sim.code == kExitOk);
+  render_v101(dir + "/ds", "2.5");
   const Run a = run({"replay", dir + "/ds", "--out", dir + "/a", "--quiet", "--deterministic"});
   const Run b = run({"replay", dir + "/ds", "--out", dir + "/b", "--quiet", "--deterministic"});
   INFO(a.err << b.err);
@@ -380,10 +389,7 @@ TEST_CASE("umsvins replay --deterministic: two replays write the same trajectory
 TEST_CASE("umsvins replay --two-core: the same trajectory and states to the byte as one core, 0 allocations",
           "[cli][sim][slow]") {
   const std::string dir = test::make_temp_dir("cli_two_core");
-  const Run sim = run({"simulate", "--trajectory", test::groundtruth_dir() + "/V101_GT.txt", "--duration", "4",
-                       "--seed", "3", "--out", dir + "/ds", "--quiet"});
-  INFO(sim.err);
-  REQUIRE(sim.code == kExitOk);
+  render_v101(dir + "/ds", "4");
   const Run one = run({"replay", dir + "/ds", "--out", dir + "/one", "--quiet", "--deterministic"});
   const Run two = run({"replay", dir + "/ds", "--out", dir + "/two", "--quiet", "--deterministic", "--two-core"});
   INFO(one.err << two.err);
