@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -33,6 +34,8 @@ CornerDetector::CornerDetector(int width, int height) : width_(width), height_(h
   response_.assign(n, 0.0f);
   rows_.assign(static_cast<std::size_t>(12 * width), 0.0f);
   mask_.assign(n, 0);
+  need_.assign(static_cast<std::size_t>(height) * kGroupWords, 0ULL);
+  scratch_.assign(static_cast<std::size_t>(height) * kGroupWords, 0ULL);
   heap_.reserve(capacity::kMaxCornerCandidates);
 }
 
@@ -66,27 +69,88 @@ bool has_zero_byte(const std::uint8_t* p) {
   return ((v - 0x0101010101010101ULL) & ~v & 0x8080808080808080ULL) != 0;
 }
 
-// out[x] = a[x] + b[x] + c[x] for x in 1 .. w-2 (separate arrays: vectorises).
-void sum3_rows(const float* __restrict a, const float* __restrict b, const float* __restrict c, float* __restrict out, int w) {
-  for (int x = 1; x < w - 1; ++x) out[x] = a[x] + b[x] + c[x];
+// out[x] = a[x] + b[x] + c[x] for x in x0 .. x1-1 (separate arrays: vectorises).
+void sum3_rows(const float* __restrict a, const float* __restrict b, const float* __restrict c, float* __restrict out,
+               int x0, int x1) {
+  for (int x = x0; x < x1; ++x) out[x] = a[x] + b[x] + c[x];
+}
+
+// out = a | b | c, rows of column-group bits.
+void or3(const std::uint64_t* a, const std::uint64_t* b, const std::uint64_t* c, std::uint64_t* out) {
+  for (int i = 0; i < CornerDetector::kGroupWords; ++i) out[i] = a[i] | b[i] | c[i];
+}
+
+// Calls f(x0, x1) for each run of set group bits as a pixel range grown by pad pixels to each
+// side and clipped to [lo, hi) (padded runs may overlap: the pixels between are done twice).
+template <class F>
+void for_each_run(const std::uint64_t* bits, int pad, int lo, int hi, F&& f) {
+  constexpr int kWords = CornerDetector::kGroupWords, kG = CornerDetector::kGroupPx;
+  int wi = 0;
+  std::uint64_t cur = bits[0];
+  for (;;) {
+    while (cur == 0) {
+      if (++wi >= kWords) return;
+      cur = bits[wi];
+    }
+    const int g0 = wi * 64 + __builtin_ctzll(cur);
+    // The run ends at the first clear bit at or after g0.
+    std::uint64_t clear = ~bits[wi] & (~0ULL << (g0 & 63));
+    while (clear == 0 && wi + 1 < kWords) clear = ~bits[++wi];
+    const int g1 = clear == 0 ? kWords * 64 : wi * 64 + __builtin_ctzll(clear);
+    const int x0 = std::max(lo, g0 * kG - pad), x1 = std::min(hi, g1 * kG + pad);
+    if (x0 < x1) f(x0, x1);
+    if (g1 >= kWords * 64 || x1 >= hi) return;
+    wi = g1 >> 6;
+    cur = bits[wi] & (~0ULL << (g1 & 63));
+  }
 }
 
 }  // namespace
 
-// Rolling computation: the Sobel products of row y go into ring slot y % 3; the response of row
-// y - 1 is the 3x3 box sum over slots (y-2, y-1, y), taken separably (vertical 3-row sum, then a
-// horizontal 3-sum). Every product is an integer of at most (4 * 255)^2 and nine of them stay
-// below 2^24, so all these float sums are exact and equal in any order: the separable form gives
-// the same bits as the direct 3x3 sum. The outer two rows and columns stay zero from the
-// constructor (never written). Returns the largest response inside the border b.
+// Groups of kGroupPx columns holding a free pixel inside the border b, per row; then need_, the
+// groups with a free pixel in the row or the rows above and below: a free pixel's 3x3 maximum
+// test reads the response there and one pixel to either side of them.
+void CornerDetector::mark_needed_groups(int b) {
+  const int w = width_, h = height_;
+  std::uint64_t* free_rows = scratch_.data();  // h rows of kGroupWords
+  std::fill(scratch_.begin(), scratch_.end(), 0ULL);
+  // Groups wholly inside [b, w - b) test their 8 mask bytes at once; the (at most two) cut by
+  // the border test the bytes inside it.
+  const int g_first = (b + kGroupPx - 1) / kGroupPx, g_end = (w - b) / kGroupPx;
+  for (int y = b; y < h - b; ++y) {
+    const std::uint8_t* m = mask_.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(w);
+    std::uint64_t* bits = free_rows + static_cast<std::size_t>(y) * kGroupWords;
+    auto mark_cut = [&](int g) {
+      bool any = false;
+      for (int x = std::max(g * kGroupPx, b); x < std::min(g * kGroupPx + kGroupPx, w - b); ++x) any |= m[x] == 0;
+      bits[g >> 6] |= static_cast<std::uint64_t>(any) << (g & 63);
+    };
+    if (b % kGroupPx != 0) mark_cut(b / kGroupPx);
+    for (int g = g_first; g < g_end; ++g) {
+      bits[g >> 6] |= static_cast<std::uint64_t>(has_zero_byte(m + g * kGroupPx)) << (g & 63);
+    }
+    if ((w - b) % kGroupPx != 0) mark_cut(g_end);
+  }
+  std::fill(need_.begin(), need_.end(), 0ULL);
+  auto row = [&](int y) { return free_rows + static_cast<std::size_t>(y) * kGroupWords; };
+  for (int y = b - 1; y < h - b + 1; ++y) or3(row(y - 1), row(y), row(y + 1), need_.data() + static_cast<std::size_t>(y) * kGroupWords);
+}
+
+// Rolling computation over the groups in need_ (and one pixel to either side) only: the Sobel
+// products of row y go into ring slot y % 3; the response of row y - 1 is the 3x3 box sum over
+// slots (y-2, y-1, y), taken separably (vertical 3-row sum, then a horizontal 3-sum). Products and
+// vertical sums are formed one more pixel to either side, products for every row the sums read. Every product is an integer of at most
+// (4 * 255)^2 and nine of them stay below 2^24, so all these float sums are exact and equal in any
+// order: the separable form gives the same bits as the direct 3x3 sum. Returns the largest response
+// at a free pixel inside the border b (OpenCV's goodFeaturesToTrack: the maximum under the mask).
 float CornerDetector::compute_response(const ImageView& img, int b) {
   const int w = width_, h = height_;
   const float kNorm = 1.0f / (8.0f * 8.0f * 9.0f);  // Sobel gain 8 per gradient, 9-pixel block mean
-  auto products = [&](int y, float* __restrict xx, float* __restrict xy, float* __restrict yy) {
+  auto products = [&](int y, int x0, int x1, float* __restrict xx, float* __restrict xy, float* __restrict yy) {
     const std::uint8_t* __restrict r0 = img.row(y - 1);
     const std::uint8_t* __restrict r1 = img.row(y);
     const std::uint8_t* __restrict r2 = img.row(y + 1);
-    for (int x = 1; x < w - 1; ++x) {
+    for (int x = x0; x < x1; ++x) {
       const int dx = (r0[x + 1] - r0[x - 1]) + 2 * (r1[x + 1] - r1[x - 1]) + (r2[x + 1] - r2[x - 1]);
       const int dy = (r2[x - 1] - r0[x - 1]) + 2 * (r2[x] - r0[x]) + (r2[x + 1] - r0[x + 1]);
       const float fdx = static_cast<float>(dx), fdy = static_cast<float>(dy);
@@ -97,6 +161,7 @@ float CornerDetector::compute_response(const ImageView& img, int b) {
   };
   float* base = rows_.data();
   auto slot = [&](int y, int which) { return base + static_cast<std::size_t>(((y % 3) * 3 + which) * w); };
+  auto need = [&](int y) { return need_.data() + static_cast<std::size_t>(y) * kGroupWords; };
   float* va = base + static_cast<std::size_t>(9 * w);  // vertical sums of the three products
   const float* __restrict vb = va + w;
   const float* __restrict vc = vb + w;
@@ -105,26 +170,47 @@ float CornerDetector::compute_response(const ImageView& img, int b) {
   float lane_max[kLanes] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
   float max_r = 0.0f;
   for (int y = 1; y < h - 1; ++y) {
-    products(y, slot(y, 0), slot(y, 1), slot(y, 2));
+    std::uint64_t prod[kGroupWords];
+    or3(need(y - 1), need(y), need(y + 1), prod);
+    for_each_run(prod, 2, 1, w - 1, [&](int x0, int x1) { products(y, x0, x1, slot(y, 0), slot(y, 1), slot(y, 2)); });
     if (y < 3) continue;
     const int yc = y - 1;  // rows yc-1, yc, yc+1 = y-2, y-1, y are all in the ring
-    for (int k = 0; k < 3; ++k) sum3_rows(slot(y - 2, k), slot(y - 1, k), slot(y, k), va + k * w, w);
+    for_each_run(need(yc), 2, 1, w - 1, [&](int x0, int x1) {
+      for (int k = 0; k < 3; ++k) sum3_rows(slot(y - 2, k), slot(y - 1, k), slot(y, k), va + k * w, x0, x1);
+    });
     float* __restrict out = response_.data() + static_cast<std::size_t>(yc) * static_cast<std::size_t>(w);
-    for (int x = 2; x < w - 2; ++x) {
-      const float sa = (va[x - 1] + va[x] + va[x + 1]) * kNorm;
-      const float sb = (vb[x - 1] + vb[x] + vb[x + 1]) * kNorm;
-      const float sc = (vc[x - 1] + vc[x] + vc[x + 1]) * kNorm;
-      out[x] = 0.5f * ((sa + sc) - std::sqrt((sa - sc) * (sa - sc) + 4.0f * sb * sb));
-    }
-    if (yc < b || yc >= h - b) continue;
-    int x = b;
-    for (; x + kLanes <= w - b; x += kLanes) {
-      for (int k = 0; k < kLanes; ++k) lane_max[k] = std::max(lane_max[k], out[x + k]);
-    }
-    for (; x < w - b; ++x) max_r = std::max(max_r, out[x]);
+    const std::uint8_t* __restrict m = mask_.data() + static_cast<std::size_t>(yc) * static_cast<std::size_t>(w);
+    const bool in_border = yc >= b && yc < h - b;
+    for_each_run(need(yc), 1, 2, w - 2, [&](int x0, int x1) {
+      for (int x = x0; x < x1; ++x) {
+        const float sa = (va[x - 1] + va[x] + va[x + 1]) * kNorm;
+        const float sb = (vb[x - 1] + vb[x] + vb[x + 1]) * kNorm;
+        const float sc = (vc[x - 1] + vc[x] + vc[x + 1]) * kNorm;
+        out[x] = 0.5f * ((sa + sc) - std::sqrt((sa - sc) * (sa - sc) + 4.0f * sb * sb));
+      }
+      if (!in_border) return;
+      int x = std::max(x0, b);
+      const int xe = std::min(x1, w - b);
+      for (; x + kLanes <= xe; x += kLanes) {
+        for (int k = 0; k < kLanes; ++k) lane_max[k] = std::max(lane_max[k], m[x + k] == 0 ? out[x + k] : 0.0f);
+      }
+      for (; x < xe; ++x) max_r = std::max(max_r, m[x] == 0 ? out[x] : 0.0f);
+    });
   }
-  for (float m : lane_max) max_r = std::max(max_r, m);
+  for (float v : lane_max) max_r = std::max(max_r, v);
   return max_r;
+}
+
+float CornerDetector::response(int x, int y) const {
+  if (x < 2 || y < 2 || x >= width_ - 2 || y >= height_ - 2) return 0.0f;
+  const std::uint64_t* bits = need_.data() + static_cast<std::size_t>(y) * kGroupWords;
+  bool computed = false;  // its group or the group one pixel to either side is needed
+  for (int dx = -1; dx <= 1; ++dx) {
+    const int g = (x + dx) / kGroupPx;
+    computed |= ((bits[g >> 6] >> (g & 63)) & 1ULL) != 0;
+  }
+  return computed ? response_[static_cast<std::size_t>(y) * static_cast<std::size_t>(width_) + static_cast<std::size_t>(x)]
+                  : std::numeric_limits<float>::quiet_NaN();
 }
 
 // The strongest kMaxCornerCandidates candidates stay, in a min-heap by score.
@@ -143,6 +229,7 @@ int CornerDetector::detect(const ImageView& image, int max_new, const DetectorOp
   if (max_new <= 0 || !image.valid() || image.width != width_ || image.height != height_) return 0;
   const int w = width_, h = height_;
   const int b = std::max(options.border_px, 3);
+  mark_needed_groups(b);
   const float max_r = compute_response(image, b);
   const float thresh = std::max(options.min_response, options.quality_level * max_r);
   heap_.clear();

@@ -1,7 +1,7 @@
 #pragma once
 // Shi-Tomasi corners (the minimum eigenvalue of the 3x3-summed structure tensor of Sobel
-// gradients), 3x3 non-maximum suppression, a threshold relative to the strongest response with an
-// absolute floor, strongest-first selection under a minimum-distance mask, and sub-pixel
+// gradients), 3x3 non-maximum suppression, a threshold relative to the strongest response in the
+// free area (as OpenCV's goodFeaturesToTrack with a mask) with an absolute floor, strongest-first selection under a minimum-distance mask, and sub-pixel
 // refinement of each accepted corner (the paper's "sub-pixel plane", Sec. III-A.1). The
 // refinement solves for the point q where every gradient g_i in a window is orthogonal to
 // (p_i - q): sum_i g_i g_i^T (p_i - q) = 0, iterated on bilinearly sampled gradients.
@@ -47,8 +47,15 @@ class CornerDetector {
   // size must be the constructed one (otherwise returns 0).
   int detect(const ImageView& image, int max_new, const DetectorOptions& options, Eigen::Vector2f* out_px);
 
-  // The Shi-Tomasi response of the last detect() at integer pixel (x, y), (grey/px)^2.
-  float response(int x, int y) const { return response_[static_cast<std::size_t>(y) * static_cast<std::size_t>(width_) + static_cast<std::size_t>(x)]; }
+  // The Shi-Tomasi response of the last detect() at integer pixel (x, y), (grey/px)^2: 0 within
+  // 2 px of the image edge, NaN where that detect() did not compute it. It is computed only in
+  // the column groups (kGroupPx wide) holding a free pixel inside the border in the row or the
+  // rows above and below, and one pixel to either side: where a corner may be placed and its 3x3
+  // neighbours.
+  float response(int x, int y) const;
+
+  static constexpr int kGroupPx = 8;
+  static constexpr int kGroupWords = (capacity::kMaxImageWidth / kGroupPx + 63) / 64;
 
   // Iterative sub-pixel refinement of *p (px) in place. False when it diverged (moved farther
   // than the window half size) or the window is untextured; *p is then left unchanged.
@@ -61,7 +68,9 @@ class CornerDetector {
   };
   static bool scores_greater(const Candidate& l, const Candidate& r) { return l.score > r.score; }
   void offer(const Candidate& c);  // into the bounded min-heap of the strongest
-  // Fills response_ and returns its maximum over pixels at least b from the image edge.
+  void mark_needed_groups(int b);  // need_ from the mask
+  // Fills response_ in the groups of need_ and returns its maximum over free pixels at least b
+  // from the image edge.
   float compute_response(const ImageView& image, int b);
 
   int width_ = 0, height_ = 0;
@@ -69,6 +78,8 @@ class CornerDetector {
   std::vector<float> rows_;  // 3 rolling rows of Ixx, Ixy, Iyy products (9 * width), then their
                              // vertical 3-row sums (3 * width)
   std::vector<std::uint8_t> mask_;
+  std::vector<std::uint64_t> need_;     // per row, kGroupWords of column-group bits: response computed
+  std::vector<std::uint64_t> scratch_;  // per row, the groups holding a free pixel
   std::vector<Candidate> heap_;  // capacity::kMaxCornerCandidates, used as a bounded min-heap
 };
 

@@ -54,6 +54,7 @@ void FrontendOptions::validate() const {
   if (levels_2d < 1 || levels_2d > capacity::kMaxPyramidLevels) fail("levels_2d", levels_2d);
   if (levels_3d < 1 || levels_3d > levels_2d) fail("levels_3d", levels_3d);
   if (levels_stereo < 1 || levels_stereo > capacity::kMaxPyramidLevels) fail("levels_stereo", levels_stereo);
+  if (levels_back < 1 || levels_back > capacity::kMaxPyramidLevels) fail("levels_back", levels_back);
   if (stereo_retry_interval < 1 || stereo_retry_interval > 1000) fail("stereo_retry_interval", stereo_retry_interval);
   if (detect_min_missing < 1 || detect_min_missing > max_cnt) fail("detect_min_missing", detect_min_missing);
   if (!(fb_max_px > 0.0f)) fail("fb_max_px", static_cast<double>(fb_max_px));
@@ -140,7 +141,7 @@ void Frontend::track_left(const Eigen::Matrix3f* R_curr_prev, FrontendFrameStats
       continue;
     }
     Eigen::Vector2f back = t.uv;
-    if (klt_track(curr, prev, levels, options_.klt, p, &back) != Status::kOk ||
+    if (klt_track(curr, prev, std::min(levels, options_.levels_back), options_.klt, p, &back) != Status::kOk ||
         (back - t.uv).squaredNorm() > options_.fb_max_px * options_.fb_max_px) {
       ++st->lost_fb;
       continue;
@@ -190,7 +191,7 @@ void Frontend::track_right(const Eigen::Matrix3f* R_curr_prev, FrontendFrameStat
       continue;
     }
     Eigen::Vector2f back = t.uv;
-    if (klt_track(curr, prev, levels, options_.klt, p, &back) != Status::kOk ||
+    if (klt_track(curr, prev, std::min(levels, options_.levels_back), options_.klt, p, &back) != Status::kOk ||
         (back - t.uv).squaredNorm() > options_.fb_max_px * options_.fb_max_px) {
       ++st->lost_fb;
       continue;
@@ -321,7 +322,7 @@ void Frontend::match_stereo(FrontendFrameStats* st) {
       pr = start;
       if (klt_track(L, R, levels, options_.klt, t.uv, &pr) != Status::kOk) continue;
       Eigen::Vector2f back = t.uv;
-      if (klt_track(R, L, levels, options_.klt, pr, &back) != Status::kOk ||
+      if (klt_track(R, L, std::min(levels, options_.levels_back), options_.klt, pr, &back) != Status::kOk ||
           (back - t.uv).squaredNorm() > options_.stereo_fb_max_px * options_.stereo_fb_max_px) {
         continue;
       }

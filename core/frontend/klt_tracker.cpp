@@ -225,6 +225,9 @@ void KltOptions::validate() const {
   }
   if (max_iterations < 1) throw std::invalid_argument("KltOptions.max_iterations must be >= 1, got " + std::to_string(max_iterations));
   if (!(epsilon_px > 0.0f)) throw std::invalid_argument("KltOptions.epsilon_px must be > 0, got " + std::to_string(epsilon_px));
+  if (!(coarse_epsilon_px > 0.0f)) {
+    throw std::invalid_argument("KltOptions.coarse_epsilon_px must be > 0, got " + std::to_string(coarse_epsilon_px));
+  }
   if (!(min_eigen >= 0.0f)) throw std::invalid_argument("KltOptions.min_eigen must be >= 0, got " + std::to_string(min_eigen));
   if (!(max_mean_abs_error > 0.0f)) {
     throw std::invalid_argument("KltOptions.max_mean_abs_error must be > 0, got " + std::to_string(max_mean_abs_error));
@@ -270,14 +273,16 @@ bool prepare_template(const ImageView& I, const Eigen::Vector2f& p, const KltOpt
 
 // Gauss-Newton iterations of one level from the carried displacement g: the flow nu on top of it.
 // False when the window left J entirely or the flow ran farther than the window reaches (it has
-// locked onto something else).
+// locked onto something else). *converged: the last update was below epsilon_px, so ws->warped
+// (sampled before it) is the window at the result to within epsilon_px.
 bool iterate_level(const ImageView& J, const Eigen::Vector2f& p, const Eigen::Vector2f& g, const KltOptions& options,
-                   KltWorkspace* ws, Eigen::Vector2f* nu) {
+                   float epsilon_px, KltWorkspace* ws, Eigen::Vector2f* nu, bool* converged) {
   const int n = options.window_px, half = n / 2, nn = n * n;
   const float inv_area = 1.0f / static_cast<float>(nn);
   const GradientSums& gs = ws->gs;
   const float inv_det = 1.0f / (gs.gxx * gs.gyy - gs.gxy * gs.gxy);
   nu->setZero();
+  *converged = false;
   for (int it = 0; it < options.max_iterations; ++it) {
     const float qx = p.x() + g.x() + nu->x(), qy = p.y() + g.y() + nu->y();
     if (!(qx > -static_cast<float>(half) && qy > -static_cast<float>(half) &&
@@ -296,7 +301,10 @@ bool iterate_level(const ImageView& J, const Eigen::Vector2f& p, const Eigen::Ve
     const float ey = inv_det * (gs.gxx * by - gs.gxy * bx);
     nu->x() += ex;
     nu->y() += ey;
-    if (ex * ex + ey * ey < options.epsilon_px * options.epsilon_px) break;
+    if (ex * ex + ey * ey < epsilon_px * epsilon_px) {
+      *converged = true;
+      break;
+    }
   }
   return nu->squaredNorm() <= static_cast<float>(half * half);
 }
@@ -313,6 +321,7 @@ Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels,
   const float top_scale = 1.0f / static_cast<float>(1 << (levels - 1));
   // Displacement (guess + flow) carried from level to level, in the current level's pixels.
   Eigen::Vector2f g = (*p_curr - p_prev) * top_scale;
+  bool converged = false;
   for (int level = levels - 1; level >= 0; --level) {
     const Eigen::Vector2f p = p_prev * (1.0f / static_cast<float>(1 << level));
     // A coarse level that cannot be used (blurred flat, or mostly outside a small image) is
@@ -323,7 +332,8 @@ Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels,
       continue;
     }
     Eigen::Vector2f nu;
-    if (!iterate_level(curr.level(level), p, g, options, &ws, &nu)) {
+    if (!iterate_level(curr.level(level), p, g, options, level == 0 ? options.epsilon_px : options.coarse_epsilon_px, &ws,
+                       &nu, &converged)) {
       if (level == 0) return Status::kNotConverged;
       nu.setZero();
     }
@@ -335,9 +345,12 @@ Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels,
         result.y() <= static_cast<float>(J0.height - 1))) {
     return Status::kNotConverged;
   }
-  // Photometric check at level 0 (the template was sampled at level 0 in the last pass).
-  ws.warped_block.sample(J0, result.x() - static_cast<float>(half), result.y() - static_cast<float>(half),
-                         options.window_px, ws.warped);
+  // Photometric check at level 0 (the template was sampled at level 0 in the last pass), on the
+  // last iteration's window when it is within epsilon_px of the result.
+  if (!converged) {
+    ws.warped_block.sample(J0, result.x() - static_cast<float>(half), result.y() - static_cast<float>(half),
+                           options.window_px, ws.warped);
+  }
   const int nn = options.window_px * options.window_px;
   if (!(mean_abs_error(ws.tmpl, ws.warped, nn) <= options.max_mean_abs_error)) return Status::kNotConverged;
   *p_curr = result;

@@ -18,7 +18,9 @@ struct KltOptions {
   int window_px = 15;             // px, odd side of the square window (VINS-Fusion uses 21; on EuRoC
                                   // 15 keeps the 3D count and epipolar RMS at 0.6x the time)
   int max_iterations = 30;        // per pyramid level
-  float epsilon_px = 0.01f;       // px, stop when the update is smaller
+  float epsilon_px = 0.01f;       // px, stop when the update is smaller (level 0)
+  float coarse_epsilon_px = 0.05f;  // px of the level, the same on the coarser levels: level 0
+                                    // refines their result anyway, it only needs its basin
   float min_eigen = 1.0f;         // (grey/px)^2, min eigenvalue of the mean structure tensor
   float max_mean_abs_error = 25.0f;  // grey levels, mean |I - J - offset| over the window after tracking
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <vector>
 
 #include <catch2/catch.hpp>
 
@@ -112,12 +113,18 @@ TEST_CASE("the separable Shi-Tomasi response equals the direct 3x3 sum bit for b
   ums::DetectorOptions opt;
   (void)det.detect(img.view(), 4, opt, pts);
   const ums::ImageView v = img.view();
-  int mismatches = 0, nonzero_border = 0;
+  int mismatches = 0, nonzero_border = 0, missing = 0;
   float largest = 0.0f;
+  const int b = opt.border_px;
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) {
       if (y < 2 || y >= h - 2 || x < 2 || x >= w - 2) {
         nonzero_border += det.response(x, y) != 0.0f ? 1 : 0;
+        continue;
+      }
+      if (!std::isfinite(det.response(x, y))) {
+        // With nothing masked, every pixel within one of the border box must have been computed.
+        missing += (x >= b - 1 && x <= w - b && y >= b - 1 && y <= h - b) ? 1 : 0;
         continue;
       }
       // The direct form: Sobel products of the 3x3 neighbourhood summed row by row.
@@ -152,4 +159,79 @@ TEST_CASE("the separable Shi-Tomasi response equals the direct 3x3 sum bit for b
   CHECK(largest > 3000.0f);  // the checker band did reach near-maximal gradients
   CHECK(mismatches == 0);
   CHECK(nonzero_border == 0);
+  CHECK(missing == 0);
+}
+
+TEST_CASE("under a mask the response is computed around free pixels only, equal to the unmasked one") {
+  const int w = 320, h = 240;
+  const ums::test::BlobTexture tex(w, h, 900, 5u);
+  const ums::test::GreyImage img = tex.render(w, h);
+  ums::DetectorOptions opt;
+  Eigen::Vector2f pts[8];
+  ums::CornerDetector full(w, h), masked(w, h);
+  full.clear_mask();
+  (void)full.detect(img.view(), 1, opt, pts);
+  // Disks over most of the image, as the tracked features leave it in flight.
+  masked.clear_mask();
+  for (int y = 0; y < h; y += 30)
+    for (int x = (y / 30) % 2 * 15; x < w; x += 30) masked.block_disk(Eigen::Vector2f(x, y), 16.0f);
+  std::vector<std::uint8_t> was_free(static_cast<std::size_t>(w * h));
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) was_free[static_cast<std::size_t>(y * w + x)] = masked.is_free(Eigen::Vector2f(x, y)) ? 1 : 0;
+  (void)masked.detect(img.view(), 1, opt, pts);
+  const int b = opt.border_px;
+  int computed = 0, interior = 0, wrong = 0, missing_near_free = 0;
+  for (int y = 2; y < h - 2; ++y) {
+    for (int x = 2; x < w - 2; ++x) {
+      ++interior;
+      bool near_free = false;  // a free pixel inside the border within one pixel
+      for (int j = -1; j <= 1; ++j)
+        for (int i = -1; i <= 1; ++i) {
+          const int fx = x + i, fy = y + j;
+          near_free |= fx >= b && fx < w - b && fy >= b && fy < h - b && was_free[static_cast<std::size_t>(fy * w + fx)] != 0;
+        }
+      const float r = masked.response(x, y);
+      if (!std::isfinite(r)) {
+        missing_near_free += near_free ? 1 : 0;
+        continue;
+      }
+      ++computed;
+      wrong += r != full.response(x, y) ? 1 : 0;
+    }
+  }
+  INFO("computed " << computed << " of " << interior << " interior pixels");
+  CHECK(missing_near_free == 0);
+  CHECK(wrong == 0);
+  CHECK(computed < interior / 2);  // the point of the mask: most of the image is skipped
+}
+
+TEST_CASE("the quality threshold is relative to the strongest free response, not to a masked corner") {
+  // A high-contrast checkerboard on the left (masked: tracked already) and faint corners (a
+  // 12-grey-level checkerboard) on the right. 0.1 of the strong corners' response is above the
+  // faint ones', 0.1 of the faint ones' is not.
+  const int w = 240, h = 120;
+  ums::test::GreyImage img(w, h);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const bool odd = ((x / 20) + (y / 20)) % 2 != 0;
+      img.at(x, y) = static_cast<std::uint8_t>(x < 120 ? (odd ? 250 : 5) : (odd ? 134 : 122));
+    }
+  ums::DetectorOptions opt;
+  opt.quality_level = 0.1f;
+  opt.min_distance_px = 10.0f;
+  Eigen::Vector2f pts[40];
+  ums::CornerDetector det(w, h);
+  det.clear_mask();
+  const int n_all = det.detect(img.view(), 40, opt, pts);
+  int right_all = 0;
+  for (int i = 0; i < n_all; ++i) right_all += pts[i].x() > 125.0f ? 1 : 0;
+  det.clear_mask();
+  for (int y = 0; y < h; y += 4) det.block_disk(Eigen::Vector2f(60.0f, static_cast<float>(y)), 64.0f);
+  const int n = det.detect(img.view(), 40, opt, pts);
+  int right = 0;
+  for (int i = 0; i < n; ++i) right += pts[i].x() > 125.0f ? 1 : 0;
+  INFO("unmasked: " << n_all << " corners, " << right_all << " faint; masked: " << n << " corners, " << right << " faint");
+  CHECK(right_all == 0);  // the strong corners set the bar while they are free
+  CHECK(right >= 16);     // 5 columns x 5 rows of faint corners inside the border: 25 found
+  CHECK(right == n);
 }

@@ -65,7 +65,56 @@ KltResult track_transformed(double angle_rad, Eigen::Vector2d shift, int levels,
   return r;
 }
 
+// Forward tracks on 4 levels (a 1 degree rotation and a 7.3 px shift), displaced by `error` px
+// (a wrong match), then the front end's confirmation: tracked back on `levels_back` levels from
+// the forward track's origin, kept within 0.5 px. Returns how many of the forward tracks it kept.
+int confirmed_tracks(int levels_back, Eigen::Vector2f error, int* forward) {
+  const int w = 640, h = 480;
+  const ums::test::BlobTexture tex(w, h, 1800, 12345u);
+  const ums::test::GreyImage a = tex.render(w, h);
+  const ums::test::GreyImage b = tex.render(w, h, 1.0 * M_PI / 180.0, Eigen::Vector2d(7.3, -4.6), Eigen::Vector2d(w / 2.0, h / 2.0));
+  ums::ImagePyramid pa(w, h, 4), pb(w, h, 4);
+  REQUIRE(pa.build(a.view()) == ums::Status::kOk);
+  REQUIRE(pb.build(b.view()) == ums::Status::kOk);
+  ums::CornerDetector det(w, h);
+  ums::DetectorOptions dopt;
+  dopt.min_distance_px = 20.0f;
+  Eigen::Vector2f pts[150];
+  det.clear_mask();
+  const int n = det.detect(a.view(), 150, dopt, pts);
+  const ums::KltOptions opt;
+  int kept = 0;
+  *forward = 0;
+  for (int i = 0; i < n; ++i) {
+    Eigen::Vector2f p = pts[i];
+    if (ums::klt_track(pa, pb, 4, opt, pts[i], &p) != ums::Status::kOk) continue;
+    ++*forward;
+    Eigen::Vector2f back = pts[i];
+    if (ums::klt_track(pb, pa, levels_back, opt, p + error, &back) == ums::Status::kOk && (back - pts[i]).norm() <= 0.5f) ++kept;
+  }
+  return kept;
+}
+
 }  // namespace
+
+TEST_CASE("the backward check on level 0 alone keeps the good tracks and drops displaced ones, as 4 levels do") {
+  int forward = 0;
+  const int good1 = confirmed_tracks(1, Eigen::Vector2f::Zero(), &forward);
+  const int good4 = confirmed_tracks(4, Eigen::Vector2f::Zero(), &forward);
+  const int near1 = confirmed_tracks(1, Eigen::Vector2f(0.9f, -0.6f), &forward);
+  const int near4 = confirmed_tracks(4, Eigen::Vector2f(0.9f, -0.6f), &forward);
+  const int far1 = confirmed_tracks(1, Eigen::Vector2f(-5.0f, 3.0f), &forward);
+  const int far4 = confirmed_tracks(4, Eigen::Vector2f(-5.0f, 3.0f), &forward);
+  INFO("forward " << forward << "; kept with 1 / 4 levels: exact " << good1 << " / " << good4 << ", 1.1 px off " << near1
+                  << " / " << near4 << ", 5.8 px off " << far1 << " / " << far4);
+  REQUIRE(forward > 50);
+  CHECK(good1 >= 0.95 * forward);
+  CHECK(good1 >= good4 - 1);
+  CHECK(near1 == 0);
+  CHECK(near4 == 0);
+  CHECK(far1 <= 0.02 * forward);
+  CHECK(far4 <= 0.02 * forward);
+}
 
 TEST_CASE("KLT tracks a sub-pixel shift to a small fraction of a pixel") {
   const KltResult r = track_transformed(0.0, Eigen::Vector2d(1.37, -0.61), 4);
