@@ -40,10 +40,11 @@ struct FrontendOptions {
   int levels_2d = 4;                   // pyramid levels for 2D features (paper: four)
   int levels_3d = 2;                   // pyramid levels for 3D features (paper: two, retry on levels_2d)
   int levels_stereo = 4;               // pyramid levels for the left->right match
-  // Pyramid levels of the backward (confirmation) tracks, temporal and stereo. They start at the
-  // forward track's origin, the answer a consistent match gives back: level 0 alone confirms it
-  // (the window's reach is its half size), the coarse levels only cost (VINS-Fusion: 2 levels).
-  int levels_back = 1;
+  // Pyramid levels of the backward (confirmation) tracks, temporal and stereo, at most the
+  // forward track's. They start at the forward track's origin, so level 0 alone would confirm a
+  // consistent match at 0.77x the front end's instructions; on the photo flights 1 and 2 levels
+  // cost accuracy (docs/frontend.md, "Less work per frame"): the coarse levels see farther.
+  int levels_back = 4;
   float fb_max_px = 0.5f;              // px, forward-backward disagreement allowed (temporal)
   float stereo_fb_max_px = 1.0f;       // px, right->left confirmation must land this close
   float stereo_epipolar_max_px = 1.5f; // px in cam1, distance of a 3D match to its epipolar line
