@@ -21,26 +21,39 @@ struct KltResult {
   double max_px = 0.0;
 };
 
+// A blob texture and its rotated and shifted rendering (about the image centre), their 4-level
+// pyramids and up to 150 corners of the first.
+struct Scene {
+  // 640 x 480: the 4th level (80 x 60) must still hold a 21 px window.
+  static constexpr int kW = 640, kH = 480;
+  Scene(double angle_rad, const Eigen::Vector2d& shift) : pa(kW, kH, 4), pb(kW, kH, 4) {
+    const ums::test::BlobTexture tex(kW, kH, 1800, 12345u);
+    const ums::test::GreyImage a = tex.render(kW, kH);
+    const ums::test::GreyImage b = tex.render(kW, kH, angle_rad, shift, pivot);
+    REQUIRE(pa.build(a.view()) == ums::Status::kOk);
+    REQUIRE(pb.build(b.view()) == ums::Status::kOk);
+    ums::CornerDetector det(kW, kH);
+    ums::DetectorOptions dopt;
+    dopt.min_distance_px = 20.0f;
+    det.clear_mask();
+    n = det.detect(a.view(), 150, dopt, pts);
+  }
+  const Eigen::Vector2d pivot{kW / 2.0, kH / 2.0};
+  ums::ImagePyramid pa, pb;
+  Eigen::Vector2f pts[150];
+  int n = 0;
+};
+
 // Detects corners in the first rendering, tracks them into the transformed one (kept only when
 // tracking back returns within 0.5 px, as in the front end) and compares with the exact
 // transform.
 KltResult track_transformed(double angle_rad, Eigen::Vector2d shift, int levels, bool use_truth_guess = false,
                             int window_px = ums::KltOptions{}.window_px) {
-  // 640 x 480: the 4th level (80 x 60) must still hold a 21 px window.
-  const int w = 640, h = 480;
-  const ums::test::BlobTexture tex(w, h, 1800, 12345u);
-  const Eigen::Vector2d pivot(w / 2.0, h / 2.0);
-  const ums::test::GreyImage a = tex.render(w, h);
-  const ums::test::GreyImage b = tex.render(w, h, angle_rad, shift, pivot);
-  ums::ImagePyramid pa(w, h, 4), pb(w, h, 4);
-  REQUIRE(pa.build(a.view()) == ums::Status::kOk);
-  REQUIRE(pb.build(b.view()) == ums::Status::kOk);
-  ums::CornerDetector det(w, h);
-  ums::DetectorOptions dopt;
-  dopt.min_distance_px = 20.0f;
-  Eigen::Vector2f pts[150];
-  det.clear_mask();
-  const int n = det.detect(a.view(), 150, dopt, pts);
+  const Scene sc(angle_rad, shift);
+  const int w = Scene::kW, h = Scene::kH, n = sc.n;
+  const Eigen::Vector2d pivot = sc.pivot;
+  const Eigen::Vector2f* pts = sc.pts;
+  const ums::ImagePyramid &pa = sc.pa, &pb = sc.pb;
   REQUIRE(n > 50);
   ums::KltOptions opt;
   opt.window_px = window_px;
@@ -69,19 +82,10 @@ KltResult track_transformed(double angle_rad, Eigen::Vector2d shift, int levels,
 // (a wrong match), then the front end's confirmation: tracked back on `levels_back` levels from
 // the forward track's origin, kept within 0.5 px. Returns how many of the forward tracks it kept.
 int confirmed_tracks(int levels_back, Eigen::Vector2f error, int* forward) {
-  const int w = 640, h = 480;
-  const ums::test::BlobTexture tex(w, h, 1800, 12345u);
-  const ums::test::GreyImage a = tex.render(w, h);
-  const ums::test::GreyImage b = tex.render(w, h, 1.0 * M_PI / 180.0, Eigen::Vector2d(7.3, -4.6), Eigen::Vector2d(w / 2.0, h / 2.0));
-  ums::ImagePyramid pa(w, h, 4), pb(w, h, 4);
-  REQUIRE(pa.build(a.view()) == ums::Status::kOk);
-  REQUIRE(pb.build(b.view()) == ums::Status::kOk);
-  ums::CornerDetector det(w, h);
-  ums::DetectorOptions dopt;
-  dopt.min_distance_px = 20.0f;
-  Eigen::Vector2f pts[150];
-  det.clear_mask();
-  const int n = det.detect(a.view(), 150, dopt, pts);
+  const Scene sc(1.0 * M_PI / 180.0, Eigen::Vector2d(7.3, -4.6));
+  const int n = sc.n;
+  const Eigen::Vector2f* pts = sc.pts;
+  const ums::ImagePyramid &pa = sc.pa, &pb = sc.pb;
   const ums::KltOptions opt;
   int kept = 0;
   *forward = 0;
