@@ -140,9 +140,7 @@ void Frontend::track_left(const Eigen::Matrix3f* R_curr_prev, FrontendFrameStats
       ++st->lost_klt;
       continue;
     }
-    Eigen::Vector2f back = t.uv;
-    if (klt_track(curr, prev, std::min(levels, options_.levels_back), options_.klt, p, &back) != Status::kOk ||
-        (back - t.uv).squaredNorm() > options_.fb_max_px * options_.fb_max_px) {
+    if (!confirmed(prev, curr, levels, t.uv, p, options_.fb_max_px)) {
       ++st->lost_fb;
       continue;
     }
@@ -190,9 +188,7 @@ void Frontend::track_right(const Eigen::Matrix3f* R_curr_prev, FrontendFrameStat
       ++st->lost_klt;
       continue;
     }
-    Eigen::Vector2f back = t.uv;
-    if (klt_track(curr, prev, std::min(levels, options_.levels_back), options_.klt, p, &back) != Status::kOk ||
-        (back - t.uv).squaredNorm() > options_.fb_max_px * options_.fb_max_px) {
+    if (!confirmed(prev, curr, levels, t.uv, p, options_.fb_max_px)) {
       ++st->lost_fb;
       continue;
     }
@@ -274,9 +270,51 @@ void Frontend::detect_left(FrontendFrameStats* st) {
   }
 }
 
-void Frontend::match_stereo(FrontendFrameStats* st) {
+bool Frontend::confirmed(const ImagePyramid& from, const ImagePyramid& to, int levels, const Eigen::Vector2f& p_from,
+                         const Eigen::Vector2f& p_to, float max_px) const {
+  Eigen::Vector2f back = p_from;
+  return klt_track(to, from, std::min(levels, options_.levels_back), options_.klt, p_to, &back) == Status::kOk &&
+         !((back - p_from).squaredNorm() > max_px * max_px);
+}
+
+// New features (no match history) also try starting points along the epipolar line at finite
+// depths: near points (the floor below the camera) have disparities far beyond what the pyramid
+// recovers from the infinity guess. Older features keep their single guess. A feature matched in
+// the previous frame starts next to its match: like temporal 3D tracking it uses levels_3d first
+// and falls back to the full levels_stereo pyramid.
+Frontend::StereoMatch Frontend::match_track(const LeftTrack& t, const Eigen::Vector2f& guess, bool had_match) const {
   const ImagePyramid& L = *pyr_[cur_][0];
   const ImagePyramid& R = *pyr_[cur_][1];
+  const int n_hyp = (t.length == 0) ? 1 + kStereoDepthHypotheses : (had_match ? 2 : 1);
+  StereoMatch m;
+  for (int h = 0; h < n_hyp; ++h) {
+    Eigen::Vector2f start = guess;
+    int levels = options_.levels_stereo;
+    if (had_match) {
+      levels = h == 0 ? std::min(options_.levels_3d, options_.levels_stereo) : options_.levels_stereo;
+    } else if (h > 0 && !cam_[1].project(R_c1_c0_ * (t.bearing * kStereoDepthsM[h - 1]) + t_c1_c0_, &start)) {
+      continue;
+    }
+    Eigen::Vector2f pr = start;
+    if (klt_track(L, R, levels, options_.klt, t.uv, &pr) != Status::kOk) continue;
+    if (!confirmed(L, R, levels, t.uv, pr, options_.stereo_fb_max_px)) continue;
+    Eigen::Vector3f br;
+    if (!cam_[1].unproject(pr, &br)) continue;
+    const float d = stereo_epipolar_distance_px(t.bearing, br);
+    if (!(d <= options_.stereo_epipolar_max_px)) {
+      m.epipolar_failed = true;
+      continue;
+    }
+    m.matched = true;
+    m.uv = pr;
+    m.bearing = br;
+    m.epipolar_px = d;
+    return m;
+  }
+  return m;
+}
+
+void Frontend::match_stereo(FrontendFrameStats* st) {
   Eigen::Vector2f offset_sum = Eigen::Vector2f::Zero();
   int offset_n = 0;
   double sq_sum = 0.0;
@@ -300,51 +338,20 @@ void Frontend::match_stereo(FrontendFrameStats* st) {
     if (!std::isfinite(guess.x())) guess = inf_ok ? Eigen::Vector2f(inf_px + stereo_offset_px_) : t.uv;
     t.right_guess = guess;
     t.stereo = false;
-    // New features (no match history) also try starting points along the epipolar line at
-    // finite depths: near points (the floor below the camera) have disparities far beyond what
-    // the pyramid recovers from the infinity guess. Older features keep their single guess.
-    // A feature matched in the previous frame starts next to its match: like temporal 3D
-    // tracking it uses levels_3d first and falls back to the full levels_stereo pyramid.
     const bool had_match = std::isfinite(t.right_guess.x()) && t.stereo_prev;
-    const int n_hyp = (t.length == 0) ? 1 + kStereoDepthHypotheses : (had_match ? 2 : 1);
-    Eigen::Vector2f pr = guess;
-    Eigen::Vector3f br = Eigen::Vector3f::UnitZ();
-    bool matched = false, epipolar_failed = false;
-    float d = 0.0f;
-    for (int h = 0; h < n_hyp && !matched; ++h) {
-      Eigen::Vector2f start = guess;
-      int levels = options_.levels_stereo;
-      if (had_match) {
-        levels = h == 0 ? std::min(options_.levels_3d, options_.levels_stereo) : options_.levels_stereo;
-      } else if (h > 0 && !cam_[1].project(R_c1_c0_ * (t.bearing * kStereoDepthsM[h - 1]) + t_c1_c0_, &start)) {
-        continue;
-      }
-      pr = start;
-      if (klt_track(L, R, levels, options_.klt, t.uv, &pr) != Status::kOk) continue;
-      Eigen::Vector2f back = t.uv;
-      if (klt_track(R, L, std::min(levels, options_.levels_back), options_.klt, pr, &back) != Status::kOk ||
-          (back - t.uv).squaredNorm() > options_.stereo_fb_max_px * options_.stereo_fb_max_px) {
-        continue;
-      }
-      if (!cam_[1].unproject(pr, &br)) continue;
-      d = stereo_epipolar_distance_px(t.bearing, br);
-      if (!(d <= options_.stereo_epipolar_max_px)) {
-        epipolar_failed = true;
-        continue;
-      }
-      matched = true;
-    }
+    const StereoMatch m = match_track(t, guess, had_match);
+    const bool matched = m.matched;
     t.stereo_failed = !matched;
     if (!matched) {
-      ++(epipolar_failed ? st->stereo_rejected_epipolar : st->stereo_rejected_klt);
+      ++(m.epipolar_failed ? st->stereo_rejected_epipolar : st->stereo_rejected_klt);
       continue;
     }
     t.stereo = true;
-    t.uv_right = pr;
-    t.bearing_right = br;
-    sq_sum += static_cast<double>(d) * static_cast<double>(d);
+    t.uv_right = m.uv;
+    t.bearing_right = m.bearing;
+    sq_sum += static_cast<double>(m.epipolar_px) * static_cast<double>(m.epipolar_px);
     if (inf_ok) {
-      offset_sum += pr - inf_px;
+      offset_sum += m.uv - inf_px;
       ++offset_n;
     }
   }

@@ -127,6 +127,19 @@ class Frontend {
   int detection_budget(std::size_t tracks_in_camera) const;
   void detect_left(FrontendFrameStats* st);
   void match_stereo(FrontendFrameStats* st);
+  struct StereoMatch {
+    bool matched = false, epipolar_failed = false;  // epipolar_failed: some hypothesis failed that check
+    Eigen::Vector2f uv = Eigen::Vector2f::Zero();   // px in the right image
+    Eigen::Vector3f bearing = Eigen::Vector3f::UnitZ();
+    float epipolar_px = 0.0f;
+  };
+  // The right-image match of left track t from guess (and the depth hypotheses of a new track).
+  StereoMatch match_track(const LeftTrack& t, const Eigen::Vector2f& guess, bool had_match) const;
+  // The backward (confirmation) track of a forward track p_from -> p_to: from p_to in `to` back
+  // into `from`, starting at p_from, on at most levels_back of `levels`; true when it lands
+  // within max_px of p_from.
+  bool confirmed(const ImagePyramid& from, const ImagePyramid& to, int levels, const Eigen::Vector2f& p_from,
+                 const Eigen::Vector2f& p_to, float max_px) const;
   void detect_right(FrontendFrameStats* st);
   void write_output(const StereoFrame& frame, FrameFeatures* out) const;
   Eigen::Vector2f predict(const Camera& cam, const Eigen::Matrix3f& R_curr_prev, const Eigen::Vector2f& uv) const;
