@@ -65,10 +65,7 @@ int run_budget(const std::vector<std::string>& argv, std::ostream& out, std::ost
     rig = reader.calibration();
     source = *args.get("dataset");
   }
-  std::vector<std::string> warnings;
-  const AppConfig config =
-      args.get("config") ? load_config(*args.get("config"), rig, &warnings) : config_from_calibration(rig);
-  for (const std::string& w : warnings) err << "warning: " << w << "\n";
+  const AppConfig config = config_of(args, rig, err);
   if (args.get("config")) source += " + " + *args.get("config");
 
   const FrontendOptions frontend_options = [&config] {

@@ -107,4 +107,11 @@ void Args::require_positionals(std::size_t n, const char* what) const {
   }
 }
 
+AppConfig config_of(const Args& args, const RigCalibration& rig, std::ostream& err) {
+  std::vector<std::string> warnings;
+  AppConfig config = args.get("config") ? load_config(*args.get("config"), rig, &warnings) : config_from_calibration(rig);
+  for (const std::string& w : warnings) err << "warning: " << w << "\n";
+  return config;
+}
+
 }  // namespace ums::cli

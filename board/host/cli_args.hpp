@@ -7,7 +7,10 @@
 #include <set>
 #include <stdexcept>
 #include <string>
+#include <ostream>
 #include <vector>
+
+#include "board/config/app_config.hpp"
 
 namespace ums::cli {
 
@@ -39,5 +42,9 @@ class Args {
   std::map<std::string, std::string> values_;
   std::set<std::string> flags_set_;
 };
+
+// The configuration a command runs with: the --config file over the rig's calibration, or the
+// calibration alone; the file's warnings go to err as "warning: ..." lines.
+AppConfig config_of(const Args& args, const RigCalibration& rig, std::ostream& err);
 
 }  // namespace ums::cli

@@ -64,11 +64,7 @@ d455::D455Options device_options_from(const AppConfig& config) {
 
 AppConfig device_config(const Args& args, std::ostream& err) {
   const RigCalibration nominal = d455::d455_nominal_calibration(848, 480, 30.0, 400.0);
-  std::vector<std::string> warnings;
-  AppConfig config = args.get("config") ? load_config(*args.get("config"), nominal, &warnings)
-                                        : config_from_calibration(nominal);
-  for (const std::string& w : warnings) err << "warning: " << w << "\n";
-  return config;
+  return config_of(args, nominal, err);
 }
 
 // A replay source may wait for the consumer (a sensor cannot): each frame goes in only once the
@@ -142,10 +138,7 @@ std::unique_ptr<LiveSource> open_source(const Args& args, const std::string& sou
     reader_options.duration_s = args.get_double("duration", 0.0);
     s->reader = std::make_unique<hal::EurocReader>();
     s->reader->open(source.substr(7), reader_options);
-    std::vector<std::string> warnings;
-    s->config = args.get("config") ? load_config(*args.get("config"), s->reader->calibration(), &warnings)
-                                   : config_from_calibration(s->reader->calibration());
-    for (const std::string& w : warnings) err << "warning: " << w << "\n";
+    s->config = config_of(args, s->reader->calibration(), err);
   } else if (source == "d455") {
     s->config = device_config(args, err);
     s->sys = std::make_unique<d455::LinuxSys>();

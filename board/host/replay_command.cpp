@@ -393,11 +393,7 @@ int run_replay(const std::vector<std::string>& argv, std::ostream& out, std::ost
   const std::filesystem::path out_dir = args.get_or("out", "out/replay");
   hal::EurocReader reader;
   reader.open(dataset, reader_options_of(args));  // throws with file:line on bad input
-  std::vector<std::string> warnings;
-  const AppConfig config = args.get("config")
-                               ? load_config(*args.get("config"), reader.calibration(), &warnings)
-                               : config_from_calibration(reader.calibration());
-  for (const std::string& w : warnings) err << "warning: " << w << "\n";
+  const AppConfig config = config_of(args, reader.calibration(), err);
   std::filesystem::create_directories(out_dir);
 
   const ReplayPipelineOptions pipeline_options = pipeline_options_of(args, reader);

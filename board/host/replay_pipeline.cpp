@@ -321,9 +321,9 @@ void ReplayPipeline::write_drops(JsonWriter& w, const ReplaySummary& s) const {
   w.end_object();
 }
 
-void ReplayPipeline::write_estimator_stats(JsonWriter& w) const {
-  const Estimator& est = *vio_.estimator();
-  const EstimatorStats& e = est.stats();
+// "init", "first_frame_t_ns" and "modes": when the estimator got where.
+void ReplayPipeline::write_init_and_modes(JsonWriter& w) const {
+  const EstimatorStats& e = vio_.estimator()->stats();
   const double t0_ns = static_cast<double>(e.first_frame_t_ns);
   w.begin_object("init")
       .value("success", e.initialized)
@@ -344,6 +344,12 @@ void ReplayPipeline::write_estimator_stats(JsonWriter& w) const {
         .end_object();
   }
   w.end_array();
+}
+
+void ReplayPipeline::write_estimator_stats(JsonWriter& w) const {
+  const Estimator& est = *vio_.estimator();
+  const EstimatorStats& e = est.stats();
+  write_init_and_modes(w);
   w.begin_object("estimator")
       .value("mode", to_string(est.mode()))
       .value("frames_imu_only", e.frames_in_mode[0])

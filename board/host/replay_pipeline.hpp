@@ -145,6 +145,7 @@ class ReplayPipeline final : public MeasurementSink, private FrameObserver {
   void write_threads(JsonWriter& w) const;
   void write_memory_stats(JsonWriter& w) const;
   void write_drops(JsonWriter& w, const ReplaySummary& s) const;
+  void write_init_and_modes(JsonWriter& w) const;
   void write_estimator_stats(JsonWriter& w) const;
   void write_extrinsic_stats(JsonWriter& w) const;
   void write_time_offset_stats(JsonWriter& w) const;

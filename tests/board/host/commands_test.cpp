@@ -114,6 +114,26 @@ TEST_CASE("umsvins: usage errors exit 64 and name the mistake", "[cli]") {
   CHECK(r.err.find("unknown kind 'imu-hole'") != std::string::npos);
 }
 
+TEST_CASE("a --config file's unknown keys reach the user as warnings (replay, budget)", "[cli][real]") {
+  const std::string dir = test::make_temp_dir("cli_config");
+  {
+    std::ofstream f(dir + "/c.yaml");
+    f << "%YAML:1.0\nmax_cnt: 120\nmax_cnt_typo: 3\n";
+  }
+  const std::string warning = "warning: " + dir + "/c.yaml: unknown key 'max_cnt_typo' ignored\n";
+  const Run budget = run({"budget", "--dataset", test::euroc_micro_dir(), "--config", dir + "/c.yaml"});
+  INFO(budget.err);
+  REQUIRE(budget.code == kExitOk);
+  CHECK(budget.err.find(warning) != std::string::npos);
+  const Run replay = run({"replay", test::euroc_micro_dir(), "--out", dir + "/r", "--duration", "1.0", "--quiet",
+                          "--deterministic", "--config", dir + "/c.yaml"});
+  INFO(replay.err);
+  REQUIRE(replay.code == kExitOk);
+  CHECK(replay.err.find(warning) != std::string::npos);
+  const Run plain = run({"replay", test::euroc_micro_dir(), "--out", dir + "/p", "--duration", "1.0", "--quiet", "--deterministic"});
+  CHECK(plain.err.find("warning:") == std::string::npos);
+}
+
 TEST_CASE("umsvins replay --fault: the faults reach the pipeline and are counted in stats.json", "[cli][real][slow]") {
   const std::string dir = test::make_temp_dir("cli_fault");
   const Run r = run({"replay", test::euroc_micro_dir(), "--out", dir, "--duration", "3.0", "--quiet", "--deterministic",
