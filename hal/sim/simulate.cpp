@@ -578,6 +578,17 @@ void write_imu(hal::EurocWriter& writer, const ImuTrack& imu) {
   }
 }
 
+// The scenarios that black out images: the first 3 s (dark start), the right image for 4 s around
+// the middle (right dropout), both images during the blackout span.
+void blank_for_scenario(const SimOptions& o, std::int64_t t_ns, double ts, double mid_s, const BlackoutSpan& blackout,
+                        std::vector<std::uint8_t>* left, std::vector<std::uint8_t>* right) {
+  const bool dark = (o.scenario == Scenario::kDarkStart && ts < 3.0) ||
+                    (o.scenario == Scenario::kBlackout && t_ns >= blackout.begin_ns && t_ns < blackout.end_ns);
+  const bool right_out = o.scenario == Scenario::kRightDropout && ts >= mid_s - 2.0 && ts < mid_s + 2.0;
+  if (dark) std::fill(left->begin(), left->end(), 0);
+  if (dark || right_out) std::fill(right->begin(), right->end(), 0);
+}
+
 }  // namespace
 
 int simulate(const SimOptions& o, std::string* error, const ProgressCallback& progress, SimStats* stats) {
@@ -614,17 +625,7 @@ int simulate(const SimOptions& o, std::string* error, const ProgressCallback& pr
       const int n = render_pair(scene, tr, o, rig, k, t, ro, left.data(), right.data());
       counts.sub_exposures += n;
       counts.max_sub_exposures = std::max(counts.max_sub_exposures, n);
-      if (o.scenario == Scenario::kDarkStart && ts < 3.0) {
-        std::fill(left.begin(), left.end(), 0);
-        std::fill(right.begin(), right.end(), 0);
-      }
-      if (o.scenario == Scenario::kRightDropout && ts >= mid_s - 2.0 && ts < mid_s + 2.0) {
-        std::fill(right.begin(), right.end(), 0);
-      }
-      if (o.scenario == Scenario::kBlackout && t >= blackout.begin_ns && t < blackout.end_ns) {
-        std::fill(left.begin(), left.end(), 0);
-        std::fill(right.begin(), right.end(), 0);
-      }
+      blank_for_scenario(o, t, ts, mid_s, blackout, &left, &right);
       StereoFrame f;
       f.t_ns = t - td_ns;  // the camera's clock
       f.seq = static_cast<std::uint64_t>(k);
