@@ -189,6 +189,14 @@ class DeferredExecutor final : public ums::BackendExecutor {
   std::size_t waiting_ = 0;
 };
 
+// How many elements of two equally long sequences differ by `differs`.
+template <class Seq, class Differs>
+int mismatches(const Seq& a, const Seq& b, Differs differs) {
+  int n = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) n += differs(a[i], b[i]) ? 1 : 0;
+  return n;
+}
+
 }  // namespace
 
 TEST_CASE("pipeline on the EuRoC micro sequence: a pose per frame with one, keyframe images, 0 allocations",
@@ -242,31 +250,20 @@ TEST_CASE("pipeline with a back-end executor: the same poses, keyframe images an
   REQUIRE(deferred.records.size() == inline_run.records.size());
   REQUIRE(deferred.out.frame_poses.size() == inline_run.out.frame_poses.size());
   CHECK(deferred.out.frame_poses.size() >= 80);
-  int pose_mismatches = 0;
-  for (std::size_t i = 0; i < inline_run.out.frame_poses.size(); ++i) {
-    const FramePose& a = inline_run.out.frame_poses[i];
-    const FramePose& b = deferred.out.frame_poses[i];
-    pose_mismatches += (a.t_ns != b.t_ns || a.id != b.id || a.keyframe != b.keyframe) ? 1 : 0;
-  }
-  CHECK(pose_mismatches == 0);
-  int estimate_mismatches = 0;
-  for (std::size_t i = 0; i < inline_run.records.size(); ++i) {
-    const ums::EstimatorOutput& a = inline_run.records[i].estimate;
-    const ums::EstimatorOutput& b = deferred.records[i].estimate;
-    estimate_mismatches += (a.p_w_b != b.p_w_b || a.q_w_b.coeffs() != b.q_w_b.coeffs() || a.v_w_b != b.v_w_b) ? 1 : 0;
-  }
-  CHECK(estimate_mismatches == 0);  // bit for bit
+  CHECK(mismatches(inline_run.out.frame_poses, deferred.out.frame_poses, [](const FramePose& a, const FramePose& b) {
+          return a.t_ns != b.t_ns || a.id != b.id || a.keyframe != b.keyframe;
+        }) == 0);
+  CHECK(mismatches(inline_run.records, deferred.records, [](const auto& ra, const auto& rb) {
+          const ums::EstimatorOutput &a = ra.estimate, &b = rb.estimate;
+          return a.p_w_b != b.p_w_b || a.q_w_b.coeffs() != b.q_w_b.coeffs() || a.v_w_b != b.v_w_b;
+        }) == 0);  // bit for bit
   CHECK(deferred.out.imu_pose_t_ns == inline_run.out.imu_pose_t_ns);
   // Keyframe images with the settled frame's own pixels, though the reader has moved on since.
   REQUIRE(deferred.out.keyframes.size() == inline_run.out.keyframes.size());
   CHECK(deferred.out.keyframes.size() >= 10);
-  int image_mismatches = 0;
-  for (std::size_t i = 0; i < inline_run.out.keyframes.size(); ++i) {
-    const KeyframeImage& a = inline_run.out.keyframes[i];
-    const KeyframeImage& b = deferred.out.keyframes[i];
-    image_mismatches += (a.id != b.id || a.t_ns != b.t_ns || a.pixel_sum != b.pixel_sum || a.n_features != b.n_features) ? 1 : 0;
-  }
-  CHECK(image_mismatches == 0);
+  CHECK(mismatches(inline_run.out.keyframes, deferred.out.keyframes, [](const KeyframeImage& a, const KeyframeImage& b) {
+          return a.id != b.id || a.t_ns != b.t_ns || a.pixel_sum != b.pixel_sum || a.n_features != b.n_features;
+        }) == 0);
   CHECK(deferred.counters.keyframes == inline_run.counters.keyframes);
   CHECK(deferred.steady_allocations == 0);
 }
