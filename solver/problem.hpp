@@ -185,9 +185,18 @@ class Problem {
   // Solves the damped system (lm_scale = 1/radius; 0 for Gauss-Newton); false on failure.
   bool compute_step(double lm_scale, double* model_cost_change);
   void form_reduced_system(double lm_scale, bool damp);
+  // 1-dof landmarks eliminated together (problem_solve.cpp, eliminate_run).
+  static constexpr int kSchurBatch = 4;
+  struct Schur1Batch {
+    int lm[kSchurBatch];
+    double w[kSchurBatch];  // 1 / (damped H_ll)
+    int n = 0;
+  };
+  int eliminate_run(int l, double lm_scale, MatrixMap S, DenseVector& rhs, bool damp);
   void eliminate_landmark(int l, double lm_scale, MatrixMap S, DenseVector& rhs, bool damp);
-  void eliminate_landmark1(int l, double lm_scale, MatrixMap S, DenseVector& rhs, bool damp);
-  void schur_update1(int l, double w, double wg, MatrixMap S, DenseVector& rhs) const;
+  double invert_landmark1(int l, double lm_scale, bool damp);
+  bool same_segments(int l, int m) const;
+  void schur_update1(const Schur1Batch& batch, MatrixMap S, DenseVector& rhs) const;
   void eliminate_landmark_block(int l, double lm_scale, MatrixMap S, DenseVector& rhs, bool damp);
   // Factors S_ and solves S_ dx_ = -rhs_ (upper triangle of S_ read, overwritten); false on failure.
   bool factor_and_solve();

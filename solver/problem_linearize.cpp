@@ -5,17 +5,13 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <limits>
 
+#include "solver/double_pair.hpp"
 #include "solver/finite.hpp"
 
 namespace ums::solver {
 namespace {
-
-using RowMat = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor,
-                             capacity::kMaxResidualSize, capacity::kMaxBlockTangentSize>;
-using ConstRowMap = Eigen::Map<const RowMat>;
 
 // H(oa.., ob..) += Ja^T Jb for two row-major Jacobian blocks of `rows` rows. The 2 x 6 case
 // (reprojection vs pose/extrinsic) dominates and gets a fixed-size path.
@@ -27,9 +23,7 @@ __attribute__((always_inline)) inline void add_jtj(MatrixMap H, int oa, int ob, 
     H.block<6, 6>(oa, ob).noalias() += A.transpose() * B;
     return;
   }
-  const ConstRowMap A(Ja, rows, ta);
-  const ConstRowMap B(Jb, rows, tb);
-  H.block(oa, ob, ta, tb) += A.transpose().lazyProduct(B);
+  add_jtj_any(H.data() + ob * H.outerStride() + oa, H.outerStride(), Ja, ta, Jb, tb, rows);
 }
 
 inline void add_jtr(DenseVector& b, int o, const double* J, int t, const double* r, int rows) {
@@ -38,19 +32,7 @@ inline void add_jtr(DenseVector& b, int o, const double* J, int t, const double*
     b.segment<6>(o).noalias() += A.transpose() * Eigen::Map<const Eigen::Vector2d>(r);
     return;
   }
-  const ConstRowMap A(J, rows, t);
-  b.segment(o, t) += A.transpose().lazyProduct(Eigen::Map<const Eigen::VectorXd>(r, rows));
-}
-
-// Two doubles in one SSE2 / NEON register. GCC's vector extension rather than Eigen's Vector2d:
-// its lane-wise ops round alike on every architecture and stay SIMD when Eigen is built scalar
-// for cross-architecture determinism (UMS_PORTABLE_FP).
-typedef double Pair __attribute__((vector_size(16)));
-
-inline Pair load_pair(const double* p) {
-  Pair v;
-  std::memcpy(&v, p, sizeof v);
-  return v;
+  add_jtj_any(b.data() + o, 0, J, t, r, 1, rows);
 }
 
 // col[0..N) += a0 * b0 + a1 * b1: one column of a 2-row J^T J block in whole packets of 2.
@@ -61,8 +43,7 @@ __attribute__((always_inline)) inline void col_update2(double* col, const Pair* 
                                                        double b1) {
   const Pair vb0 = {b0, b0}, vb1 = {b1, b1};
   for (int i = 0; i < N / 2; ++i) {
-    const Pair c = load_pair(col + 2 * i) + (a0[i] * vb0 + a1[i] * vb1);
-    std::memcpy(col + 2 * i, &c, sizeof c);
+    store_pair(col + 2 * i, load_pair(col + 2 * i) + (a0[i] * vb0 + a1[i] * vb1));
   }
 }
 

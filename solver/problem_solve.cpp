@@ -8,6 +8,7 @@
 #include <cmath>
 #include <limits>
 
+#include "solver/double_pair.hpp"
 #include "solver/finite.hpp"
 
 namespace ums::solver {
@@ -229,7 +230,7 @@ bool Problem::accept_step(LmState& s, double cand_cost, double relative_decrease
 bool Problem::compute_step(double lm_scale, double* model_cost_change) {
   const bool damp = lm_scale > 0.0;
   form_reduced_system(lm_scale, damp);
-  for (int l = 0; l < num_lm_; ++l) eliminate_landmark(l, lm_scale, S_.m(), rhs_, damp);
+  for (int l = 0; l < num_lm_;) l = eliminate_run(l, lm_scale, S_.m(), rhs_, damp);
 
   if (n_red_ > 0 && !factor_and_solve()) return false;
 
@@ -267,55 +268,100 @@ void Problem::form_reduced_system(double lm_scale, bool damp) {
   }
 }
 
+// Landmarks l.. eliminated into S, rhs; returns the first landmark not eliminated. 1-dof
+// landmarks in a row with the same segments (nearly all of them: a landmark of the window sees
+// most of its frames) go through schur_update1 together, up to kSchurBatch at a time: S is read
+// and written once per batch instead of once per landmark. Each element still receives the
+// landmarks' updates one after the other in landmark order: the same doubles as one at a time.
+int Problem::eliminate_run(int l, double lm_scale, MatrixMap S, DenseVector& rhs, bool damp) {
+  if (lm_dim_[l] != 1) {
+    eliminate_landmark_block(l, lm_scale, S, rhs, damp);
+    return l + 1;
+  }
+  Schur1Batch batch;
+  int next = l;
+  for (; next < num_lm_ && batch.n < kSchurBatch && lm_dim_[next] == 1 && same_segments(l, next); ++next) {
+    const double w = invert_landmark1(next, lm_scale, damp);
+    if (w == 0.0) continue;  // skipped: touches nothing, the order of the others is kept
+    batch.lm[batch.n] = next;
+    batch.w[batch.n] = w;
+    ++batch.n;
+  }
+  schur_update1(batch, S, rhs);
+  return next;
+}
+
 // Schur complement of landmark l into S, rhs (rhs = reduced gradient). damp: add its LM diagonal.
 void Problem::eliminate_landmark(int l, double lm_scale, MatrixMap S, DenseVector& rhs,
                                  bool damp) {
-  if (lm_dim_[l] == 1)
-    eliminate_landmark1(l, lm_scale, S, rhs, damp);
-  else
+  if (lm_dim_[l] != 1) {
     eliminate_landmark_block(l, lm_scale, S, rhs, damp);
+    return;
+  }
+  Schur1Batch one;
+  one.lm[0] = l;
+  one.w[0] = invert_landmark1(l, lm_scale, damp);
+  one.n = one.w[0] == 0.0 ? 0 : 1;
+  schur_update1(one, S, rhs);
 }
 
-// 1-dof landmark: a scalar division and a rank-1 update; dl_[l][0] keeps 1/h (inf: skipped).
-void Problem::eliminate_landmark1(int l, double lm_scale, MatrixMap S, DenseVector& rhs,
-                                  bool damp) {
+// 1-dof landmark l's damped h inverted: dl_[l][0] keeps w = 1/h for back-substitution, or inf
+// ("skipped") when h is not positive, then 0 is returned.
+double Problem::invert_landmark1(int l, double lm_scale, bool damp) {
   double h = Hll_[l][0];
   if (damp) h += lm_scale * std::clamp(h * scale_l_[l][0] * scale_l_[l][0], min_diag_, max_diag_) /
                  (scale_l_[l][0] * scale_l_[l][0]);
   if (!(h > 0.0)) {
-    dl_[l][0] = std::numeric_limits<double>::infinity();  // marks "skipped" for back-substitution
-    return;
+    dl_[l][0] = std::numeric_limits<double>::infinity();
+    return 0.0;
   }
-  const double w = 1.0 / h;
-  dl_[l][0] = w;  // keep 1/h for back-substitution
-  schur_update1(l, w, w * gl_[l][0], S, rhs);
+  dl_[l][0] = 1.0 / h;
+  return dl_[l][0];
 }
 
-// S -= w v v^T, rhs -= wg v over landmark l's segments' upper triangle, column by column: plain
-// axpy loops on contiguous rows (short, variable lengths: cheaper than Eigen segment expressions).
-void Problem::schur_update1(int l, double w, double wg, MatrixMap S, DenseVector& rhs) const {
-  const int s0 = lm_seg_begin_[l];
-  const int s1 = lm_seg_begin_[l + 1];
+// Landmarks l and m couple with the same rows (segment by segment).
+bool Problem::same_segments(int l, int m) const {
+  const int n = lm_seg_begin_[l + 1] - lm_seg_begin_[l];
+  if (lm_seg_begin_[m + 1] - lm_seg_begin_[m] != n) return false;
+  for (int a = 0; a < n; ++a) {
+    const int sl = lm_seg_begin_[l] + a, sm = lm_seg_begin_[m] + a;
+    if (seg_row_[sl] != seg_row_[sm] || seg_len_[sl] != seg_len_[sm]) return false;
+  }
+  return true;
+}
+
+// S -= sum_k w_k v_k v_k^T, rhs -= sum_k w_k g_k v_k over the batch's common segments (upper
+// triangle), column by column in packets of 2 rows (double_pair.hpp). A diagonal segment's
+// column j is updated over rows 0..j rounded up to a whole packet inside the segment: the one
+// lower entry written is never read (form_reduced_system copies H's upper triangle only, and
+// the factorizations and the marginalization read upper triangles).
+void Problem::schur_update1(const Schur1Batch& batch, MatrixMap S, DenseVector& rhs) const {
+  const int n = batch.n;
+  if (n == 0) return;
+  const int s0 = lm_seg_begin_[batch.lm[0]];
+  const int s1 = lm_seg_begin_[batch.lm[0] + 1];
   const Eigen::Index ld = S.outerStride();
+  const double* va[kSchurBatch];
+  const double* vb[kSchurBatch];
+  double c[kSchurBatch];
   for (int a = s0; a < s1; ++a) {
     const int oa = seg_row_[a];
     const int la = seg_len_[a];
-    const double* va = v_ + seg_v_[a];
-    double* rhs_a = rhs.data() + oa;
-    for (int i = 0; i < la; ++i) rhs_a[i] -= wg * va[i];
+    for (int k = 0; k < n; ++k) {
+      va[k] = v_ + seg_v_[lm_seg_begin_[batch.lm[k]] + (a - s0)];
+      c[k] = batch.w[k] * gl_[batch.lm[k]][0];
+    }
+    sub_scaled_sum(rhs.data() + oa, n, c, va, la);
     for (int j = 0; j < la; ++j) {
-      double* col = S.data() + (oa + j) * ld + oa;
-      const double cj = w * va[j];
-      for (int i = 0; i <= j; ++i) col[i] -= cj * va[i];
+      for (int k = 0; k < n; ++k) c[k] = batch.w[k] * va[k][j];
+      sub_scaled_sum(S.data() + (oa + j) * ld + oa, n, c, va, std::min((j + 2) & ~1, la));
     }
     for (int b = a + 1; b < s1; ++b) {
       const int ob = seg_row_[b];
-      const int lb = seg_len_[b];
-      const double* vb = v_ + seg_v_[b];
-      for (int j = 0; j < lb; ++j) {
-        double* col = S.data() + (ob + j) * ld + oa;
-        const double cj = w * vb[j];
-        for (int i = 0; i < la; ++i) col[i] -= cj * va[i];
+      for (int k = 0; k < n; ++k) vb[k] = v_ + seg_v_[lm_seg_begin_[batch.lm[k]] + (b - s0)];
+      for (int j = 0; j < seg_len_[b]; ++j) {
+        for (int k = 0; k < n; ++k) c[k] = batch.w[k] * vb[k][j];
+        sub_scaled_sum(S.data() + (ob + j) * ld + oa, n, c, va, la);
       }
     }
   }

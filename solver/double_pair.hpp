@@ -1,0 +1,81 @@
+#pragma once
+// Packet kernels of the solver's hot loops (the Schur updates, J^T J): two doubles in one SSE2 /
+// NEON register. Each keeps the scalar formula's operations and order per element, so it gives
+// the same doubles as the plain loop it replaces (tests/solver/double_pair_test.cpp). GCC's vector extension
+// rather than Eigen's Vector2d: its lane-wise ops round alike on every architecture (each lane is
+// the scalar formula, no contraction under -ffp-contract=off) and stay SIMD when Eigen is built
+// scalar for cross-architecture determinism (UMS_PORTABLE_FP).
+
+#include <cstring>
+
+namespace ums::solver {
+
+typedef double Pair __attribute__((vector_size(16)));
+
+inline Pair load_pair(const double* p) {
+  Pair v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+
+inline void store_pair(double* p, Pair v) { std::memcpy(p, &v, sizeof v); }
+
+// y[0..n) -= c * x[0..n), element by element as the scalar loop (the same doubles), in whole
+// packets and one scalar tail. GCC vectorizes the plain loop too, but behind an aliasing check,
+// a peel and an epilogue that cost more than the arithmetic at the solver's lengths (6..100).
+inline void sub_scaled(double* y, double c, const double* x, int n) {
+  const Pair vc = {c, c};
+  int i = 0;
+  for (; i + 2 <= n; i += 2) store_pair(y + i, load_pair(y + i) - vc * load_pair(x + i));
+  if (i < n) y[i] -= c * x[i];
+}
+
+template <int M>
+inline void sub_scaled_terms(double* y, const double* c, const double* const* x, int n) {
+  Pair vc[M];
+  for (int k = 0; k < M; ++k) vc[k] = Pair{c[k], c[k]};
+  int i = 0;
+  for (; i + 2 <= n; i += 2) {
+    Pair v = load_pair(y + i);
+    for (int k = 0; k < M; ++k) v = v - vc[k] * load_pair(x[k] + i);
+    store_pair(y + i, v);
+  }
+  if (i < n)
+    for (int k = 0; k < M; ++k) y[i] -= c[k] * x[k][i];
+}
+
+// y[0..n) -= c[0] x[0][0..n), then -= c[1] x[1][0..n), ... (m terms, 1..4): every element
+// receives the terms in that order, as m calls of sub_scaled would give, but y is read and
+// written once.
+inline void sub_scaled_sum(double* y, int m, const double* c, const double* const* x, int n) {
+  switch (m) {
+    case 1: return sub_scaled(y, c[0], x[0], n);
+    case 2: return sub_scaled_terms<2>(y, c, x, n);
+    case 3: return sub_scaled_terms<3>(y, c, x, n);
+    default: return sub_scaled_terms<4>(y, c, x, n);
+  }
+}
+
+// Hb(0..ta, 0..tb) += A^T B for row-major A (rows x ta) and B (rows x tb); Hb column-major with
+// leading dimension ld. Each entry is Eigen's lazy product coefficient, the dot product summed
+// from row 0 on, added to H: the same doubles, two rows of H per packet. (Eigen's own product is
+// scalar here, EIGEN_DONT_VECTORIZE, and costs some 10 instructions per multiply-add at these
+// dynamic sizes: the IMU factor's 15-row blocks.)
+inline void add_jtj_any(double* Hb, long ld, const double* A, int ta, const double* B, int tb, int rows) {
+  for (int j = 0; j < tb; ++j) {
+    double* col = Hb + j * ld;
+    int i = 0;
+    for (; i + 2 <= ta; i += 2) {
+      Pair s = load_pair(A + i) * Pair{B[j], B[j]};
+      for (int r = 1; r < rows; ++r) s = s + load_pair(A + r * ta + i) * Pair{B[r * tb + j], B[r * tb + j]};
+      store_pair(col + i, load_pair(col + i) + s);
+    }
+    if (i < ta) {
+      double s = A[i] * B[j];
+      for (int r = 1; r < rows; ++r) s += A[r * ta + i] * B[r * tb + j];
+      col[i] += s;
+    }
+  }
+}
+
+}  // namespace ums::solver

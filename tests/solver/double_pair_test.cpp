@@ -1,0 +1,73 @@
+#include "solver/double_pair.hpp"
+
+#include <catch2/catch.hpp>
+#include <random>
+#include <vector>
+
+namespace ums::solver {
+namespace {
+
+// Values with full mantissas, so that any change of operation order shows in the last bits.
+std::vector<double> random_values(std::mt19937& rng, int n) {
+  std::uniform_real_distribution<double> u(-3.0, 3.0);
+  std::vector<double> v(static_cast<std::size_t>(n));
+  for (double& x : v) x = u(rng) / 7.0;
+  return v;
+}
+
+TEST_CASE("sub_scaled_sum gives the doubles of one scalar pass per term", "[solver][double_pair]") {
+  std::mt19937 rng(7);
+  int cases = 0;
+  for (int m = 1; m <= 4; ++m) {
+    for (int n = 1; n <= 13; ++n) {
+      std::vector<double> xs[4];
+      const double* x[4];
+      for (int k = 0; k < m; ++k) {
+        xs[k] = random_values(rng, n);
+        x[k] = xs[k].data();
+      }
+      const std::vector<double> c = random_values(rng, m);
+      // One guard element past n: the kernel must not touch it.
+      std::vector<double> y = random_values(rng, n + 1);
+      std::vector<double> ref = y;
+      for (int k = 0; k < m; ++k)
+        for (int i = 0; i < n; ++i) ref[i] -= c[k] * x[k][i];
+      sub_scaled_sum(y.data(), m, c.data(), x, n);
+      for (int i = 0; i <= n; ++i) REQUIRE(y[i] == ref[i]);  // bit-equal, guard unchanged
+      ++cases;
+    }
+  }
+  CHECK(cases == 52);
+}
+
+TEST_CASE("add_jtj_any gives the doubles of the row-ordered dot products", "[solver][double_pair]") {
+  std::mt19937 rng(11);
+  const long ld = 12;
+  for (int rows : {1, 2, 3, 15}) {
+    for (int ta : {1, 3, 6, 9}) {
+      for (int tb : {1, 6, 9}) {
+        const std::vector<double> A = random_values(rng, rows * ta);
+        const std::vector<double> B = random_values(rng, rows * tb);
+        std::vector<double> H = random_values(rng, static_cast<int>(ld) * tb);
+        std::vector<double> ref = H;
+        for (int j = 0; j < tb; ++j)
+          for (int i = 0; i < ta; ++i) {
+            double s = A[i] * B[j];
+            for (int r = 1; r < rows; ++r) s += A[r * ta + i] * B[r * tb + j];
+            ref[j * ld + i] += s;
+          }
+        add_jtj_any(H.data(), ld, A.data(), ta, B.data(), tb, rows);
+        for (std::size_t k = 0; k < H.size(); ++k) REQUIRE(H[k] == ref[k]);  // rows past ta unchanged too
+      }
+    }
+  }
+  // The value itself: [1 2; 3 4]^T [5; 6] = [23; 34].
+  const double A[4] = {1.0, 2.0, 3.0, 4.0}, B[2] = {5.0, 6.0};
+  double h[2] = {0.5, -0.5};
+  add_jtj_any(h, 2, A, 2, B, 1, 2);
+  CHECK(h[0] == 23.5);
+  CHECK(h[1] == 33.5);
+}
+
+}  // namespace
+}  // namespace ums::solver
