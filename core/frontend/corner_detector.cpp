@@ -217,11 +217,11 @@ float CornerDetector::response(int x, int y) const {
 void CornerDetector::offer(const Candidate& c) {
   if (heap_.size() < capacity::kMaxCornerCandidates) {
     heap_.push_back(c);  // within reserved capacity: no allocation
-    std::push_heap(heap_.begin(), heap_.end(), scores_greater);
+    std::push_heap(heap_.begin(), heap_.end(), ScoresGreater{});
   } else if (c.score > heap_.front().score) {
-    std::pop_heap(heap_.begin(), heap_.end(), scores_greater);
+    std::pop_heap(heap_.begin(), heap_.end(), ScoresGreater{});
     heap_.back() = c;
-    std::push_heap(heap_.begin(), heap_.end(), scores_greater);
+    std::push_heap(heap_.begin(), heap_.end(), ScoresGreater{});
   }
 }
 
@@ -255,7 +255,7 @@ int CornerDetector::detect(const ImageView& image, int max_new, const DetectorOp
       }
     }
   }
-  std::sort_heap(heap_.begin(), heap_.end(), scores_greater);  // descending score
+  std::sort_heap(heap_.begin(), heap_.end(), ScoresGreater{});  // descending score
   int count = 0;
   for (const Candidate& c : heap_) {
     if (count >= max_new) break;

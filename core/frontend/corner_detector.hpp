@@ -66,7 +66,10 @@ class CornerDetector {
     float score;
     int x, y;
   };
-  static bool scores_greater(const Candidate& l, const Candidate& r) { return l.score > r.score; }
+  // A function object, not a function pointer: the heap operations inline the comparison.
+  struct ScoresGreater {
+    bool operator()(const Candidate& l, const Candidate& r) const { return l.score > r.score; }
+  };
   void offer(const Candidate& c);  // into the bounded min-heap of the strongest
   void mark_needed_groups(int b);  // need_ from the mask
   // Fills response_ in the groups of need_ and returns its maximum over free pixels at least b

@@ -130,16 +130,24 @@ inline void store(float* p, Lanes v) { std::memcpy(p, &v, sizeof v); }
 constexpr int kMaxSrcRow = ((KltOptions::kMaxWindowPx + 2 + kLanes - 1) / kLanes * kLanes + 1 + kWiden - 1) / kWiden * kWiden;
 constexpr int kMaxSrcRows = KltOptions::kMaxWindowPx + 3;
 
-// Source pixels x0 .. x0 + src - 1 of row y (clamped into the image) as floats. Inside the image
-// 8 at a time; a row that crosses the left or right border clamps each pixel.
+// Source pixels x0 .. x0 + src - 1 of row y (clamped into the image) as floats, 8 at a time
+// inside the image. A row that crosses the left or right border (often on the small coarse
+// levels) repeats the border pixel outside and converts the part inside 8 at a time while
+// whole loads stay inside the row.
 void convert_row(const ImageView& image, int x0, int y, int src, float* f) {
   const std::uint8_t* r = image.row(std::clamp(y, 0, image.height - 1));
   if (x0 >= 0 && x0 + src <= image.width) {
     for (int i = 0; i < src; i += kWiden) widen8(r + x0 + i, f + i);
     return;
   }
-  const int wmax = image.width - 1;
-  for (int i = 0; i < src; ++i) f[i] = static_cast<float>(r[std::clamp(x0 + i, 0, wmax)]);
+  const int lo = std::clamp(-x0, 0, src);               // first i inside the image
+  const int hi = std::clamp(image.width - x0, lo, src);  // one past the last i inside
+  const float left = static_cast<float>(r[0]), right = static_cast<float>(r[image.width - 1]);
+  int i = 0;
+  for (; i < lo; ++i) f[i] = left;
+  for (; i + kWiden <= hi; i += kWiden) widen8(r + x0 + i, f + i);
+  for (; i < hi; ++i) f[i] = static_cast<float>(r[x0 + i]);
+  for (; i < src; ++i) f[i] = right;
 }
 
 // Bilinear patches from the pixels under them, converted to float once per integer origin: the
