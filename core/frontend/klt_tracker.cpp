@@ -28,6 +28,8 @@ inline Lanes load(const float* p) {
   return v;
 }
 
+inline void store(float* p, Lanes v) { std::memcpy(p, &v, sizeof v); }
+
 inline float lane_sum(Lanes v) {
   float s = 0.0f;
   for (int i = 0; i < kLanes; ++i) s += v[i];
@@ -106,97 +108,116 @@ float mean_abs_error(const float* t, const float* w, int nn) {
 }
 
 
-// 8 pixels -> 8 floats (exact: the values are small integers), as two 4-lane vectors.
-constexpr int kWiden = 8;
-inline void widen8(const std::uint8_t* p, float* out) {
-#if defined(__SSE2__)
+// Bilinear sampling in fixed point, as OpenCV's pyramidal LK (there with 14-bit weights): the
+// four weights are integers summing to 128, so a sample is an integer sum of pixel x weight
+// products (at most 255 x 128, 16 bits) and the float out is that sum / 128, exact. The
+// arithmetic is integer throughout: every machine gives the same floats, with 8 samples per
+// vector instruction (NEON's u8 x u8 multiply-accumulate; SSE2 on 16-bit lanes). The position
+// is quantized to 1/128 px, below the 0.01 px at which the tracker stops.
+constexpr int kWeightBits = 7;
+constexpr int kWeightOne = 1 << kWeightBits;
+constexpr int kChunk = 8;  // samples per vector step
+
+struct Weights {
+  int w00, w01, w10, w11;
+};
+
+// From the fractions (ax, ay) in [0, 1): X = round(128 ax), Y = round(128 ay); w11 = round(X Y /
+// 128) and the others by difference, so that none is negative and they sum to 128.
+Weights quantized_weights(float ax, float ay) {
+  const int X = static_cast<int>(ax * static_cast<float>(kWeightOne) + 0.5f);
+  const int Y = static_cast<int>(ay * static_cast<float>(kWeightOne) + 0.5f);
+  const int w11 = (X * Y + kWeightOne / 2) >> kWeightBits;
+  return {kWeightOne - X - Y + w11, X - w11, Y - w11, w11};
+}
+
+// 8 samples from two source rows (each read at i .. i + 8, 9 pixels) as floats: grey levels, or
+// (kGrey false) 128 times them, the integer sums themselves. The tracker works on the latter: a
+// power-of-two scale changes no rounding, so only its two thresholds are scaled to match.
+template <bool kGrey>
+inline void sample_chunk(const std::uint8_t* r0, const std::uint8_t* r1, const Weights& w, float* out) {
+  constexpr float kInv = kGrey ? 1.0f / static_cast<float>(kWeightOne) : 1.0f;
+#if defined(__ARM_NEON)
+  uint16x8_t s = vmull_u8(vld1_u8(r0), vdup_n_u8(static_cast<std::uint8_t>(w.w00)));
+  s = vmlal_u8(s, vld1_u8(r0 + 1), vdup_n_u8(static_cast<std::uint8_t>(w.w01)));
+  s = vmlal_u8(s, vld1_u8(r1), vdup_n_u8(static_cast<std::uint8_t>(w.w10)));
+  s = vmlal_u8(s, vld1_u8(r1 + 1), vdup_n_u8(static_cast<std::uint8_t>(w.w11)));
+  float32x4_t lo = vcvtq_f32_u32(vmovl_u16(vget_low_u16(s))), hi = vcvtq_f32_u32(vmovl_u16(vget_high_u16(s)));
+  if constexpr (kGrey) {
+    lo = vmulq_n_f32(lo, kInv);
+    hi = vmulq_n_f32(hi, kInv);
+  }
+  vst1q_f32(out, lo);
+  vst1q_f32(out + 4, hi);
+#elif defined(__SSE2__)
   const __m128i zero = _mm_setzero_si128();
-  const __m128i w = _mm_unpacklo_epi8(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(p)), zero);
-  _mm_storeu_ps(out, _mm_cvtepi32_ps(_mm_unpacklo_epi16(w, zero)));
-  _mm_storeu_ps(out + 4, _mm_cvtepi32_ps(_mm_unpackhi_epi16(w, zero)));
-#elif defined(__ARM_NEON)
-  const uint16x8_t w = vmovl_u8(vld1_u8(p));
-  vst1q_f32(out, vcvtq_f32_u32(vmovl_u16(vget_low_u16(w))));
-  vst1q_f32(out + 4, vcvtq_f32_u32(vmovl_u16(vget_high_u16(w))));
+  auto px = [zero](const std::uint8_t* p) {
+    return _mm_unpacklo_epi8(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(p)), zero);
+  };
+  // Products and sums below 2^15: 16-bit lanes hold them exactly.
+  __m128i s = _mm_mullo_epi16(px(r0), _mm_set1_epi16(static_cast<short>(w.w00)));
+  s = _mm_add_epi16(s, _mm_mullo_epi16(px(r0 + 1), _mm_set1_epi16(static_cast<short>(w.w01))));
+  s = _mm_add_epi16(s, _mm_mullo_epi16(px(r1), _mm_set1_epi16(static_cast<short>(w.w10))));
+  s = _mm_add_epi16(s, _mm_mullo_epi16(px(r1 + 1), _mm_set1_epi16(static_cast<short>(w.w11))));
+  __m128 lo = _mm_cvtepi32_ps(_mm_unpacklo_epi16(s, zero)), hi = _mm_cvtepi32_ps(_mm_unpackhi_epi16(s, zero));
+  if constexpr (kGrey) {
+    lo = _mm_mul_ps(lo, _mm_set1_ps(kInv));
+    hi = _mm_mul_ps(hi, _mm_set1_ps(kInv));
+  }
+  _mm_storeu_ps(out, lo);
+  _mm_storeu_ps(out + 4, hi);
 #else
-  for (int i = 0; i < kWiden; ++i) out[i] = static_cast<float>(p[i]);
+  for (int i = 0; i < kChunk; ++i) {
+    const int v = w.w00 * r0[i] + w.w01 * r0[i + 1] + w.w10 * r1[i] + w.w11 * r1[i + 1];
+    out[i] = static_cast<float>(v) * kInv;
+  }
 #endif
 }
 
-inline void store(float* p, Lanes v) { std::memcpy(p, &v, sizeof v); }
-
-// The largest source row converted: window + 2 (the template with its gradient border), rounded
-// up to whole vectors, plus the right neighbour, rounded up to whole 8-pixel loads.
-constexpr int kMaxSrcRow = ((KltOptions::kMaxWindowPx + 2 + kLanes - 1) / kLanes * kLanes + 1 + kWiden - 1) / kWiden * kWiden;
+// The widest source row: the largest patch (window + 2) in whole chunks, plus the right neighbour.
+constexpr int kMaxSrcRow = (KltOptions::kMaxWindowPx + 2 + kChunk - 1) / kChunk * kChunk + 1;
 constexpr int kMaxSrcRows = KltOptions::kMaxWindowPx + 3;
 
-// Source pixels x0 .. x0 + src - 1 of row y (clamped into the image) as floats, 8 at a time
-// inside the image. A row that crosses the left or right border (often on the small coarse
-// levels) repeats the border pixel outside and converts the part inside 8 at a time while
-// whole loads stay inside the row.
-void convert_row(const ImageView& image, int x0, int y, int src, float* f) {
-  const std::uint8_t* r = image.row(std::clamp(y, 0, image.height - 1));
-  if (x0 >= 0 && x0 + src <= image.width) {
-    for (int i = 0; i < src; i += kWiden) widen8(r + x0 + i, f + i);
-    return;
-  }
-  const int lo = std::clamp(-x0, 0, src);               // first i inside the image
-  const int hi = std::clamp(image.width - x0, lo, src);  // one past the last i inside
-  const float left = static_cast<float>(r[0]), right = static_cast<float>(r[image.width - 1]);
-  int i = 0;
-  for (; i < lo; ++i) f[i] = left;
-  for (; i + kWiden <= hi; i += kWiden) widen8(r + x0 + i, f + i);
-  for (; i < hi; ++i) f[i] = static_cast<float>(r[x0 + i]);
-  for (; i < src; ++i) f[i] = right;
+// Source pixels x0 .. x0 + src - 1 of row r (width w), the ones outside the row repeating its
+// end pixels.
+void clamped_row(const std::uint8_t* r, int w, int x0, int src, std::uint8_t* out) {
+  const int lo = std::clamp(-x0, 0, src);       // first i inside the row
+  const int hi = std::clamp(w - x0, lo, src);   // one past the last i inside
+  std::memset(out, r[0], static_cast<std::size_t>(lo));
+  if (hi > lo) std::memcpy(out + lo, r + x0 + lo, static_cast<std::size_t>(hi - lo));
+  std::memset(out + hi, r[w - 1], static_cast<std::size_t>(src - hi));
 }
 
-// Bilinear patches from the pixels under them, converted to float once per integer origin: the
-// iterations of one KLT level mostly move the window by less than a pixel and reuse them.
-class SourceBlock {
- public:
-  // sample_patch_bilinear's contract (n checked by the caller).
-  void sample(const ImageView& image, float x, float y, int n, float* out) {
-    const float fx0 = std::floor(x), fy0 = std::floor(y);
-    const int x0 = static_cast<int>(fx0), y0 = static_cast<int>(fy0);
-    const float ax = x - fx0, ay = y - fy0;
-    // One fraction for the whole patch: four weights, reused for every sample.
-    const float w00 = (1.0f - ax) * (1.0f - ay), w01 = ax * (1.0f - ay), w10 = (1.0f - ax) * ay, w11 = ax * ay;
-    const int cols = (n + kLanes - 1) / kLanes * kLanes;
-    if (image.data != data_ || image.stride != stride_ || x0 != x0_ || y0 != y0_ || n != n_) {
-      const int src = (cols + 1 + kWiden - 1) / kWiden * kWiden;
-      for (int j = 0; j <= n; ++j) convert_row(image, x0, y0 + j, src, rows_[j]);
-      data_ = image.data;
-      stride_ = image.stride;
-      x0_ = x0;
-      y0_ = y0;
-      n_ = n;
+// sample_patch_bilinear's contract (n checked by the caller; kGrey false: 128 times the grey
+// levels). The pixels are read in place when the block under the patch (n + 1 rows of whole
+// chunks + 1) lies inside the image; a block that crosses an edge is copied with the border
+// pixels repeated.
+template <bool kGrey>
+void sample_fixed(const ImageView& image, float x, float y, int n, float* out) {
+  const float fx0 = std::floor(x), fy0 = std::floor(y);
+  const int x0 = static_cast<int>(fx0), y0 = static_cast<int>(fy0);
+  const Weights w = quantized_weights(x - fx0, y - fy0);
+  const int cols = (n + kChunk - 1) / kChunk * kChunk;
+  const int src = cols + 1;
+  const std::uint8_t* rows[kMaxSrcRows];
+  std::uint8_t copy[kMaxSrcRows][kMaxSrcRow];
+  if (x0 >= 0 && y0 >= 0 && x0 + src <= image.width && y0 + n + 1 <= image.height) {
+    for (int j = 0; j <= n; ++j) rows[j] = image.row(y0 + j) + x0;
+  } else {
+    for (int j = 0; j <= n; ++j) {
+      clamped_row(image.row(std::clamp(y0 + j, 0, image.height - 1)), image.width, x0, src, copy[j]);
+      rows[j] = copy[j];
     }
-    interpolate(n, cols, Lanes{w00, w00, w00, w00}, Lanes{w01, w01, w01, w01}, Lanes{w10, w10, w10, w10},
-                Lanes{w11, w11, w11, w11}, out);
   }
-
- private:
-  // Each output row in whole 4-lane vectors: the samples past n land on the next row's start,
-  // which that row overwrites; the last row goes through a scratch row. The products and their
-  // order are the scalar formula's, w00 p00 + w01 p01 + w10 p10 + w11 p11: the same floats on
-  // every machine.
-  void interpolate(int n, int cols, Lanes w00, Lanes w01, Lanes w10, Lanes w11, float* out) const {
-    alignas(16) float last[kMaxSrcRow];
-    for (int j = 0; j < n; ++j) {
-      const float* f0 = rows_[j];
-      const float* f1 = rows_[j + 1];
-      float* o = j + 1 < n ? out + j * n : last;
-      for (int i = 0; i < cols; i += kLanes) {
-        store(o + i, w00 * load(f0 + i) + w01 * load(f0 + i + 1) + w10 * load(f1 + i) + w11 * load(f1 + i + 1));
-      }
-    }
-    std::memcpy(out + (n - 1) * n, last, sizeof(float) * static_cast<std::size_t>(n));
+  // Each row in whole chunks: the samples past n land on the next row's start, which that row
+  // overwrites; a row whose chunks would run past the patch goes through a scratch row.
+  alignas(16) float scratch[kMaxSrcRow];
+  for (int j = 0; j < n; ++j) {
+    float* o = j * n + cols <= n * n ? out + j * n : scratch;
+    for (int i = 0; i < cols; i += kChunk) sample_chunk<kGrey>(rows[j] + i, rows[j + 1] + i, w, o + i);
+    if (o == scratch) std::memcpy(out + j * n, scratch, sizeof(float) * static_cast<std::size_t>(n));
   }
-
-  const std::uint8_t* data_ = nullptr;  // the image whose pixels rows_ holds (none yet)
-  int stride_ = 0, x0_ = 0, y0_ = 0, n_ = 0;
-  alignas(16) float rows_[kMaxSrcRows][kMaxSrcRow];
-};
+}
 
 void check_patch_size(int n) {
   if (n < 1 || n > KltOptions::kMaxWindowPx + 2) {
@@ -244,14 +265,13 @@ void KltOptions::validate() const {
 
 void sample_patch_bilinear(const ImageView& image, float x, float y, int n, float* out) {
   check_patch_size(n);
-  SourceBlock block;
-  block.sample(image, x, y, n, out);
+  sample_fixed<true>(image, x, y, n, out);
 }
 
 namespace {
 
-// One klt_track call's buffers: the template with its gradients, the warped window and the pixel
-// blocks under both (stack, no allocation).
+// One klt_track call's buffers: the template with its gradients and the warped window (stack, no
+// allocation).
 struct KltWorkspace {
   static constexpr int kMaxN = KltOptions::kMaxWindowPx;
   static constexpr int kMaxT = kMaxN + 2;
@@ -261,7 +281,6 @@ struct KltWorkspace {
   alignas(16) float gx[kMaxN * kMaxN + kLanes];
   alignas(16) float gy[kMaxN * kMaxN + kLanes];
   alignas(16) float warped[kMaxN * kMaxN];
-  SourceBlock template_block, warped_block;  // the pixels under the template and under the window
   GradientSums gs;
 };
 
@@ -270,13 +289,15 @@ struct KltWorkspace {
 bool prepare_template(const ImageView& I, const Eigen::Vector2f& p, const KltOptions& options, KltWorkspace* ws) {
   const int n = options.window_px, half = n / 2, ne = n + 2, nn = n * n;
   const float inv_area = 1.0f / static_cast<float>(nn);
-  ws->template_block.sample(I, p.x() - static_cast<float>(half + 1), p.y() - static_cast<float>(half + 1), ne, ws->tmpl_ext);
+  sample_fixed<false>(I, p.x() - static_cast<float>(half + 1), p.y() - static_cast<float>(half + 1), ne, ws->tmpl_ext);
   std::fill(ws->tmpl_ext + ne * ne, ws->tmpl_ext + ne * ne + kLanes, 0.0f);  // read by the last row's spare lanes
   template_and_gradients(ws->tmpl_ext, n, ws->tmpl, ws->gx, ws->gy);
   ws->gs = gradient_sums(ws->gx, ws->gy, nn);
   const float a = ws->gs.gxx * inv_area, b = ws->gs.gxy * inv_area, c2 = ws->gs.gyy * inv_area;
   const float min_eig = 0.5f * ((a + c2) - std::sqrt((a - c2) * (a - c2) + 4.0f * b * b));
-  return min_eig >= options.min_eigen && min_eig > 0.0f;
+  // The samples are 128 x grey levels (sample_chunk), the tensor 128^2 x (grey/px)^2.
+  constexpr float kScale2 = static_cast<float>(kWeightOne * kWeightOne);
+  return min_eig >= options.min_eigen * kScale2 && min_eig > 0.0f;
 }
 
 // Gauss-Newton iterations of one level from the carried displacement g: the flow nu on top of it.
@@ -297,7 +318,7 @@ bool iterate_level(const ImageView& J, const Eigen::Vector2f& p, const Eigen::Ve
           qx < static_cast<float>(J.width + half) && qy < static_cast<float>(J.height + half))) {
       return false;
     }
-    ws->warped_block.sample(J, qx - static_cast<float>(half), qy - static_cast<float>(half), n, ws->warped);
+    sample_fixed<false>(J, qx - static_cast<float>(half), qy - static_cast<float>(half), n, ws->warped);
     // Intensity offset between the windows (exposure, or the two cameras' gains) removed:
     // e = (T - mean T) - (J - mean J) = d - mean d with d = T - J, so
     // sum e g = sum d g - mean(d) sum g (d is small near convergence: no cancellation).
@@ -356,11 +377,14 @@ Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels,
   // Photometric check at level 0 (the template was sampled at level 0 in the last pass), on the
   // last iteration's window when it is within epsilon_px of the result.
   if (!converged) {
-    ws.warped_block.sample(J0, result.x() - static_cast<float>(half), result.y() - static_cast<float>(half),
+    sample_fixed<false>(J0, result.x() - static_cast<float>(half), result.y() - static_cast<float>(half),
                            options.window_px, ws.warped);
   }
   const int nn = options.window_px * options.window_px;
-  if (!(mean_abs_error(ws.tmpl, ws.warped, nn) <= options.max_mean_abs_error)) return Status::kNotConverged;
+  // In 128 x grey levels, as the samples.
+  if (!(mean_abs_error(ws.tmpl, ws.warped, nn) <= options.max_mean_abs_error * static_cast<float>(kWeightOne))) {
+    return Status::kNotConverged;
+  }
   *p_curr = result;
   return Status::kOk;
 }

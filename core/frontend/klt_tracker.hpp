@@ -1,10 +1,13 @@
 #pragma once
-// Pyramidal Lucas-Kanade point tracking (Bouguet's coarse-to-fine scheme) on our own pyramids,
-// with bilinear interpolation and float math. The residual is taken between mean-removed windows
-// (an intensity offset between frames or between the left and right cameras does not bias it). One call tracks one point; the caller runs the
-// forward-backward check by tracking the result back. Template gradients are central differences
-// of a bilinearly sampled patch one pixel larger than the window, so nothing is precomputed per
-// frame and no memory is needed beyond a few stack patches.
+// Pyramidal Lucas-Kanade point tracking (Bouguet's coarse-to-fine scheme) on our own pyramids.
+// Patches are sampled bilinearly in fixed point, as in OpenCV's pyramidal LK: weights in 1/128
+// (the position quantized to 1/256 px, under the 0.01 px at which tracking stops), integer sums
+// of pixel x weight, so every machine gives the same floats; the tracking itself is float math.
+// The residual is taken between mean-removed windows (an intensity offset between frames or
+// between the left and right cameras does not bias it). One call tracks one point; the caller
+// runs the forward-backward check by tracking the result back. Template gradients are central
+// differences of a patch one pixel larger than the window, so nothing is precomputed per frame
+// and no memory is needed beyond a few stack patches.
 
 #include <Eigen/Core>
 
@@ -38,9 +41,11 @@ Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels,
                  const Eigen::Vector2f& p_prev, Eigen::Vector2f* p_curr);
 
 // Samples an n x n patch whose top-left sample sits at (x, y) (sub-pixel, level px) with bilinear
-// interpolation; samples outside the image use the nearest border pixel. out has n*n floats;
-// n is 1..KltOptions::kMaxWindowPx + 2 (std::invalid_argument otherwise). Bit-identical on every
-// architecture (fixed lane order, no contraction).
+// interpolation in fixed point (grey levels out): with X = round(128 ax), Y = round(128 ay) for
+// the fractions ax, ay of x, y, the weights are w11 = round(X Y / 128), w01 = X - w11,
+// w10 = Y - w11, w00 = 128 - X - Y + w11, and a sample is (sum of w p) / 128, exact. Samples
+// outside the image use the nearest border pixel. out has n*n floats; n is
+// 1..KltOptions::kMaxWindowPx + 2 (std::invalid_argument otherwise).
 void sample_patch_bilinear(const ImageView& image, float x, float y, int n, float* out);
 
 }  // namespace ums

@@ -170,7 +170,33 @@ TEST_CASE("KltOptions::validate rejects an even window") {
   CHECK_THROWS_AS(o.validate(), std::invalid_argument);
 }
 
-TEST_CASE("bilinear patch sampling equals the direct four-weight formula bit for bit, inside and at the border") {
+// The sampler's arithmetic written out sample by sample: the weights in 1/128 from the rounded
+// fractions, the integer sum of products, the float quotient.
+float fixed_point_reference(const ums::ImageView& v, float x, float y, int i, int j) {
+  const float fx0 = std::floor(x), fy0 = std::floor(y);
+  const int X = static_cast<int>((x - fx0) * 128.0f + 0.5f), Y = static_cast<int>((y - fy0) * 128.0f + 0.5f);
+  const int w11 = (X * Y + 64) >> 7, w01 = X - w11, w10 = Y - w11, w00 = 128 - X - Y + w11;
+  auto px = [&](int xx, int yy) {
+    return static_cast<int>(v.row(std::clamp(yy, 0, v.height - 1))[std::clamp(xx, 0, v.width - 1)]);
+  };
+  const int x0 = static_cast<int>(fx0) + i, y0 = static_cast<int>(fy0) + j;
+  const int sum = w00 * px(x0, y0) + w01 * px(x0 + 1, y0) + w10 * px(x0, y0 + 1) + w11 * px(x0 + 1, y0 + 1);
+  return static_cast<float>(sum) / 128.0f;
+}
+
+// Float bilinear interpolation with exact weights (what the fixed-point weights approximate).
+float exact_bilinear(const ums::ImageView& v, float x, float y) {
+  const float fx0 = std::floor(x), fy0 = std::floor(y);
+  const float ax = x - fx0, ay = y - fy0;
+  auto px = [&](int xx, int yy) {
+    return static_cast<float>(v.row(std::clamp(yy, 0, v.height - 1))[std::clamp(xx, 0, v.width - 1)]);
+  };
+  const int x0 = static_cast<int>(fx0), y0 = static_cast<int>(fy0);
+  return (1.0f - ax) * (1.0f - ay) * px(x0, y0) + ax * (1.0f - ay) * px(x0 + 1, y0) + (1.0f - ax) * ay * px(x0, y0 + 1) +
+         ax * ay * px(x0 + 1, y0 + 1);
+}
+
+TEST_CASE("bilinear patch sampling equals the fixed-point formula bit for bit, inside and at the border") {
   const int w = 80, h = 60;
   ums::test::GreyImage img(w, h);
   std::uint32_t s = 88172645u;
@@ -183,32 +209,24 @@ TEST_CASE("bilinear patch sampling equals the direct four-weight formula bit for
   const ums::ImageView v = img.view();
   float out[33 * 33];
   int mismatches = 0, samples = 0;
-  // Every remainder of the four-lane kernel (n mod 4 = 0..3), the tracker's windows and larger.
+  // Every remainder of the eight-sample kernel, the tracker's windows and larger.
   const int sizes[9] = {1, 4, 5, 6, 7, 9, 15, 17, 33};
-  // Interior origins (integer, tiny and near-1 fractions too), plus ones hanging over each edge
-  // (the clamped path).
+  // Interior origins (integer, tiny and near-1 fractions too: 0.9999 rounds to the next pixel's
+  // full weight), plus ones hanging over each edge (the copied block).
   const float origins[9][2] = {{3.25f, 4.75f}, {20.5f, 11.125f}, {40.9f, 20.01f}, {12.0f, 7.0f}, {5.0001f, 9.9999f},
                                {-2.3f, 5.5f},  {70.2f, 40.6f},   {10.0f, -1.5f},  {46.5f, 25.5f}};
   for (int n : sizes) {
-    // The vector path reads whole 8-pixel loads: the origins where its last load ends exactly at
-    // the right edge (still inside) and one pixel further (clamped) are the ones that matter.
-    const int cols = (n + 3) / 4 * 4, src = (cols + 1 + 7) / 8 * 8;
+    // In place, the kernel reads whole chunks of 8 and one pixel more: the origins where that
+    // read ends exactly at the right edge (still in place) and one pixel further (copied).
+    const int src = (n + 7) / 8 * 8 + 1;
     const float edge_x = static_cast<float>(w - src);
     const float edge_origins[3][2] = {{edge_x + 0.375f, 2.5f}, {edge_x + 1.375f, 2.5f}, {1.5f, static_cast<float>(h - n - 1) + 0.25f}};
     for (int k = 0; k < 12; ++k) {
       const float* o = k < 9 ? origins[k] : edge_origins[k - 9];
       ums::sample_patch_bilinear(v, o[0], o[1], n, out);
-      const float fx0 = std::floor(o[0]), fy0 = std::floor(o[1]);
-      const float ax = o[0] - fx0, ay = o[1] - fy0;
-      const float w00 = (1.0f - ax) * (1.0f - ay), w01 = ax * (1.0f - ay), w10 = (1.0f - ax) * ay, w11 = ax * ay;
       for (int j = 0; j < n; ++j) {
         for (int i = 0; i < n; ++i) {
-          auto px = [&](int x, int y) {
-            return static_cast<float>(v.row(std::clamp(y, 0, h - 1))[std::clamp(x, 0, w - 1)]);
-          };
-          const int x0 = static_cast<int>(fx0) + i, y0 = static_cast<int>(fy0) + j;
-          const float ref = w00 * px(x0, y0) + w01 * px(x0 + 1, y0) + w10 * px(x0, y0 + 1) + w11 * px(x0 + 1, y0 + 1);
-          mismatches += out[j * n + i] != ref ? 1 : 0;
+          mismatches += out[j * n + i] != fixed_point_reference(v, o[0], o[1], i, j) ? 1 : 0;
           ++samples;
         }
       }
@@ -220,4 +238,34 @@ TEST_CASE("bilinear patch sampling equals the direct four-weight formula bit for
   // Beyond the stack rows it was sized for: refused, not overrun.
   CHECK_THROWS_AS(ums::sample_patch_bilinear(v, 3.0f, 3.0f, ums::KltOptions::kMaxWindowPx + 3, out), std::invalid_argument);
   CHECK_THROWS_AS(ums::sample_patch_bilinear(v, 3.0f, 3.0f, 0, out), std::invalid_argument);
+}
+
+TEST_CASE("fixed-point bilinear samples stay within half a grey level of exact bilinear interpolation on a textured image") {
+  // The weights are rounded to 1/128: the position moves by at most 1/256 px per axis and the
+  // cross term's weight by 1/256, so a sample moves by a small fraction of the local contrast.
+  const ums::test::BlobTexture tex(320, 240, 400, 777u);
+  const ums::test::GreyImage img = tex.render(320, 240);
+  const ums::ImageView v = img.view();
+  float out[15 * 15];
+  double max_err = 0.0, sum_err = 0.0;
+  int samples = 0;
+  std::uint32_t s = 12345u;
+  for (int k = 0; k < 200; ++k) {
+    s = s * 1664525u + 1013904223u;
+    const float x = 10.0f + static_cast<float>(s >> 8) / 16777216.0f * 290.0f;
+    s = s * 1664525u + 1013904223u;
+    const float y = 10.0f + static_cast<float>(s >> 8) / 16777216.0f * 210.0f;
+    ums::sample_patch_bilinear(v, x, y, 15, out);
+    for (int j = 0; j < 15; ++j) {
+      for (int i = 0; i < 15; ++i) {
+        const double e = std::abs(out[j * 15 + i] - exact_bilinear(v, x + static_cast<float>(i), y + static_cast<float>(j)));
+        max_err = std::max(max_err, e);
+        sum_err += e;
+        ++samples;
+      }
+    }
+  }
+  INFO("max " << max_err << " grey, mean " << sum_err / samples << " grey over " << samples << " samples");
+  CHECK(max_err <= 0.5);
+  CHECK(sum_err / samples <= 0.03);
 }
