@@ -26,9 +26,8 @@ void RelativePoseCache::refresh(Source& s) {
   s.p = Eigen::Vector3d(s.values[0], s.values[1], s.values[2]);
 }
 
-const RelativePoseCache::Pair& RelativePoseCache::pair(int host_slot, int host_cam, int target_slot, int target_cam) {
-  Entry& e = entries_[host_slot][target_slot][host_cam][target_cam];
-  if (e.epoch == epoch_) return e.pair;
+const RelativePoseCache::Pair& RelativePoseCache::form(Entry& e, int host_slot, int host_cam, int target_slot,
+                                                       int target_cam) {
   Source& h = frame_[host_slot];
   Source& t = frame_[target_slot];
   Source& eh = ext_[host_cam];

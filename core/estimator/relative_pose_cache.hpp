@@ -49,8 +49,12 @@ class RelativePoseCache final : public solver::EvaluationCallback {
   void prepare_for_evaluation() override { invalidate(); }
 
   // The products at the blocks' values (as of the first lookup since invalidate()). No
-  // allocation; the slots and cameras must be bound.
-  const Pair& pair(int host_slot, int host_cam, int target_slot, int target_cam);
+  // allocation; the slots and cameras must be bound. Inline: nearly every lookup is a hit (one
+  // residual in a hundred forms its pair).
+  const Pair& pair(int host_slot, int host_cam, int target_slot, int target_cam) {
+    Entry& e = entries_[host_slot][target_slot][host_cam][target_cam];
+    return e.epoch == epoch_ ? e.pair : form(e, host_slot, host_cam, target_slot, target_cam);
+  }
 
  private:
   struct Source {
@@ -64,6 +68,7 @@ class RelativePoseCache final : public solver::EvaluationCallback {
     Pair pair;
   };
   void refresh(Source& s);
+  const Pair& form(Entry& e, int host_slot, int host_cam, int target_slot, int target_cam);
 
   std::uint64_t epoch_ = 1;
   Source frame_[kMaxFrames];
