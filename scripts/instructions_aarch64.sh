@@ -11,11 +11,14 @@
 # Replays run with --deterministic: the solver's second round is bounded by iterations, not by the
 # wall clock, which qemu and valgrind slow down 20-50x (without it the count depends on the host).
 #
-# Usage: scripts/instructions_aarch64.sh [--x86] [dataset...]
+# Usage: scripts/instructions_aarch64.sh [--x86] [--function=LABEL=PREFIX ...] [dataset...]
 #   default datasets (rendered by the host build, scripts/demo.sh builds it): the V1_01 profile
 #   from 20 s for 3 s, seed 1, at 752x480 (scripts/instructions.sh's sequence) and with the D455
 #   camera at 848x480, and the real micro sequence ../shared/data/euroc/V1_01_easy_micro.
 #   --x86: also count each run with callgrind on the host build (scripts/instructions.sh), side by side.
+#   --function=LABEL=PREFIX (up to 5): also count, on aarch64, the instructions while any function
+#     whose demangled name starts with PREFIX is active (callees included), printed per frame
+#     under the run's line; e.g. --function=klt=ums::klt_track --function='jtj=ums::solver::Problem::accumulate_two_row'.
 # Installs what it needs: the cross compiler and qemu-user (scripts/deps.sh aarch64), and qemu's
 # plugin header, taken from Debian's qemu source package (a deb-src entry is added when missing).
 set -euo pipefail
@@ -23,11 +26,20 @@ set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 x86=0
 datasets=()
+fn_labels=()
+fn_prefixes=()
 for a in "$@"; do
   case "$a" in
     --x86) x86=1 ;;
+    --function=*=*)
+      spec="${a#--function=}"
+      fn_labels+=("${spec%%=*}")
+      fn_prefixes+=("${spec#*=}")
+      [[ ${#fn_labels[@]} -le 5 ]] || { echo "instructions_aarch64: at most 5 --function options (the plugin follows 8 labels)" >&2; exit 64; }
+      [[ "${fn_labels[-1]}" =~ ^[A-Za-z0-9_]+$ ]] || { echo "instructions_aarch64: --function label '${fn_labels[-1]}' must be letters, digits or _" >&2; exit 64; }
+      ;;
     -h|--help) sed -n '2,22p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
-    -*) echo "instructions_aarch64: unknown option '$a' (--x86)" >&2; exit 64 ;;
+    -*) echo "instructions_aarch64: unknown option '$a' (--x86, --function=LABEL=PREFIX)" >&2; exit 64 ;;
     *) [[ -d "$a/mav0" ]] || { echo "instructions_aarch64: $a: not a EuRoC dataset (no mav0/)" >&2; exit 64; }
        datasets+=("$(cd "$a" && pwd)") ;;
   esac
@@ -118,6 +130,16 @@ symbol_args() {  # binary -> the plugin's main= and fn= arguments, from nm (C++ 
          else if (index(name, "ums::cli::ReplayPipeline::on_") == 1) label = "pipeline"
          if (label != "") printf ",fn=%s:0x%s:0x%s", label, $1, $2
        }' "$nm_out"
+  local i
+  for i in "${!fn_labels[@]}"; do
+    local found
+    found=$(awk -v pre="${fn_prefixes[$i]}" -v label="${fn_labels[$i]}" '$3 ~ /^[tTwW]$/ {
+              name = $0; sub(/^[^ ]+ [^ ]+ [^ ]+ /, "", name)
+              if (index(name, pre) == 1) printf ",fn=%s:0x%s:0x%s", label, $1, $2
+            }' "$nm_out")
+    [[ -n "$found" ]] || { echo "instructions_aarch64: --function: no function of $1 starts with '${fn_prefixes[$i]}'" >&2; exit 64; }
+    printf '%s' "$found"
+  done
 }
 
 count_aarch64() {  # dataset tag -> "frames frontend backend pipeline process" (M per frame)
@@ -132,7 +154,7 @@ count_aarch64() {  # dataset tag -> "frames frontend backend pipeline process" (
     cat "$c" >&2
     exit 1
   fi
-  for label in frontend backend pipeline; do
+  for label in frontend backend pipeline "${fn_labels[@]}"; do
     local entries returns
     entries=$(field entries "$label")
     returns=$(field returns "$label")
@@ -145,8 +167,13 @@ count_aarch64() {  # dataset tag -> "frames frontend backend pipeline process" (
   done
   local frames
   frames=$(grep -o '"frames": [0-9]*' "$work/$tag.arm/stats.json" | awk '{print $2}')
+  local extra=""
+  for label in "${fn_labels[@]}"; do extra+=" $(field stage "$label")"; done
   awk -v f="$frames" -v fe="$(field stage frontend)" -v be="$(field stage backend)" -v pipe="$(field stage pipeline)" \
-    -v all="$(field total -)" 'BEGIN { printf "%d %.1f %.1f %.1f %.1f\n", f, fe / f / 1e6, be / f / 1e6, pipe / f / 1e6, all / f / 1e6 }'
+    -v all="$(field total -)" -v extra="$extra" 'BEGIN {
+      printf "%d %.1f %.1f %.1f %.1f", f, fe / f / 1e6, be / f / 1e6, pipe / f / 1e6, all / f / 1e6
+      n = split(extra, e, " "); for (i = 1; i <= n; ++i) printf " %.2f", e[i] / f / 1e6
+      printf "\n" }'
 }
 
 count_x86() {  # dataset -> "frames frontend backend pipeline process" (M per frame, callgrind)
@@ -184,7 +211,13 @@ for ds in "${datasets[@]}"; do
   [[ $x86 -eq 1 ]] && runs+=("x86-64 callgrind")
   for arch in "${runs[@]}"; do
     if [[ "$arch" == aarch64* ]]; then line=$(count_aarch64 "$ds" "$tag"); else line=$(count_x86 "$ds"); fi
-    read -r frames fe be pipe process <<<"$line"
+    read -r frames fe be pipe process extra <<<"$line"
     printf '%-22s %-24s %6d %10s %10s %10s %10s\n' "$tag" "$arch" "$frames" "$fe" "$be" "$pipe" "$process"
+    if [[ "$arch" == aarch64* && ${#fn_labels[@]} -gt 0 ]]; then
+      read -ra values <<<"$extra"
+      for i in "${!fn_labels[@]}"; do
+        printf '%-22s %-24s %6s %10s M/frame  (%s*)\n' "" "  ${fn_labels[$i]}" "" "${values[$i]}" "${fn_prefixes[$i]}"
+      done
+    fi
   done
 done
