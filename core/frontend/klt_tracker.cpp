@@ -189,9 +189,9 @@ void clamped_row(const std::uint8_t* r, int w, int x0, int src, std::uint8_t* ou
 }
 
 // sample_patch_bilinear's contract (n checked by the caller; kGrey false: 128 times the grey
-// levels). The pixels are read in place when the block under the patch (n + 1 rows of whole
-// chunks + 1) lies inside the image; a block that crosses an edge is copied with the border
-// pixels repeated.
+// levels). The pixels are read in place when the columns under the patch (whole chunks + 1) lie
+// inside the image; a block that crosses the left or right edge is copied with the border pixels
+// repeated.
 template <bool kGrey>
 void sample_fixed(const ImageView& image, float x, float y, int n, float* out) {
   const float fx0 = std::floor(x), fy0 = std::floor(y);
@@ -201,11 +201,13 @@ void sample_fixed(const ImageView& image, float x, float y, int n, float* out) {
   const int src = cols + 1;
   const std::uint8_t* rows[kMaxSrcRows];
   std::uint8_t copy[kMaxSrcRows][kMaxSrcRow];
-  if (x0 >= 0 && y0 >= 0 && x0 + src <= image.width && y0 + n + 1 <= image.height) {
-    for (int j = 0; j <= n; ++j) rows[j] = image.row(y0 + j) + x0;
+  const int ymax = image.height - 1;
+  if (x0 >= 0 && x0 + src <= image.width) {
+    // Rows above or below the image repeat the edge row: pointing at it is the copy.
+    for (int j = 0; j <= n; ++j) rows[j] = image.row(std::clamp(y0 + j, 0, ymax)) + x0;
   } else {
     for (int j = 0; j <= n; ++j) {
-      clamped_row(image.row(std::clamp(y0 + j, 0, image.height - 1)), image.width, x0, src, copy[j]);
+      clamped_row(image.row(std::clamp(y0 + j, 0, ymax)), image.width, x0, src, copy[j]);
       rows[j] = copy[j];
     }
   }
