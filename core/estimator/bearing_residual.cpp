@@ -119,9 +119,12 @@ bool BearingResidual::evaluate_cached(const double* const* parameters, double* r
   shifted_bearings(parameters, &b_h, &b_t);
   const Eigen::Vector3d P_ch = b_h / rho;
   const Eigen::Vector3d P_ct = c.R_ct_ch * P_ch + c.p_ct_ch;
+  // The solver's cost passes hand a view with nothing wanted: then no d r / d P_ct either.
+  const bool any = jacobians != nullptr && (jacobians[0].wanted() || jacobians[1].wanted() ||
+                                            jacobians[k_rho].wanted() || (has_td_ && jacobians[k_rho + 1].wanted()));
   Eigen::Matrix<double, 2, 3> D;
-  if (!project(P_ct, b_t, residuals, jacobians == nullptr ? nullptr : &D)) return false;
-  if (jacobians == nullptr) return true;
+  if (!project(P_ct, b_t, residuals, any ? &D : nullptr)) return false;
+  if (!any) return true;
   // The same Jacobians as evaluate()'s, from the shared products (R_ct_bt = R_b_ct^T).
   const bool want_h = jacobians[0].wanted(), want_t = jacobians[1].wanted();
   if (want_h || want_t) {
