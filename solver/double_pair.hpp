@@ -20,16 +20,9 @@ inline Pair load_pair(const double* p) {
 
 inline void store_pair(double* p, Pair v) { std::memcpy(p, &v, sizeof v); }
 
-// y[0..n) -= c * x[0..n), element by element as the scalar loop (the same doubles), in whole
-// packets and one scalar tail. GCC vectorizes the plain loop too, but behind an aliasing check,
-// a peel and an epilogue that cost more than the arithmetic at the solver's lengths (6..100).
-inline void sub_scaled(double* y, double c, const double* x, int n) {
-  const Pair vc = {c, c};
-  int i = 0;
-  for (; i + 2 <= n; i += 2) store_pair(y + i, load_pair(y + i) - vc * load_pair(x + i));
-  if (i < n) y[i] -= c * x[i];
-}
-
+// y[0..n) -= c[0] x[0][0..n), then -= c[1] x[1][0..n), ... (M terms), in whole packets and one
+// scalar tail. GCC vectorizes the plain loops too, but behind an aliasing check, a peel and an
+// epilogue that cost more than the arithmetic at the solver's lengths (6..100).
 template <int M>
 inline void sub_scaled_terms(double* y, const double* c, const double* const* x, int n) {
   Pair vc[M];
@@ -45,11 +38,11 @@ inline void sub_scaled_terms(double* y, const double* c, const double* const* x,
 }
 
 // y[0..n) -= c[0] x[0][0..n), then -= c[1] x[1][0..n), ... (m terms, 1..4): every element
-// receives the terms in that order, as m calls of sub_scaled would give, but y is read and
-// written once.
+// receives the terms in that order, as m passes of the plain loop y[i] -= c[k] x[k][i] would
+// give, but y is read and written once.
 inline void sub_scaled_sum(double* y, int m, const double* c, const double* const* x, int n) {
   switch (m) {
-    case 1: return sub_scaled(y, c[0], x[0], n);
+    case 1: return sub_scaled_terms<1>(y, c, x, n);
     case 2: return sub_scaled_terms<2>(y, c, x, n);
     case 3: return sub_scaled_terms<3>(y, c, x, n);
     default: return sub_scaled_terms<4>(y, c, x, n);
