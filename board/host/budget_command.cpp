@@ -49,25 +49,8 @@ std::string kib(std::size_t bytes) {
   return buf;
 }
 
-}  // namespace
-
-int run_budget(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
-  const Args args("budget", argv, {}, {"config", "dataset"});
-  args.require_positionals(0, "");
-
-  // Calibration: a dataset's sensor.yaml, else the D455 at its default 848x480 mode; a config
-  // file overrides on top of either.
-  RigCalibration rig = d455::d455_nominal_calibration(848, 480, 30.0, 200.0);
-  std::string source = "D455 nominal 848x480";
-  if (args.get("dataset")) {
-    hal::EurocReader reader;
-    reader.open(*args.get("dataset"));
-    rig = reader.calibration();
-    source = *args.get("dataset");
-  }
-  const AppConfig config = config_of(args, rig, err);
-  if (args.get("config")) source += " + " + *args.get("config");
-
+// The parts of the product's memory, each built once as the product builds it and measured.
+std::vector<Row> budget_rows(const AppConfig& config) {
   const FrontendOptions frontend_options = [&config] {
     FrontendOptions o;
     o.max_cnt = config.max_cnt;
@@ -95,6 +78,29 @@ int run_budget(const std::vector<std::string>& argv, std::ostream& out, std::ost
   rows.push_back({"replay_images", static_cast<std::size_t>(2 * config.rig.cam[0].width * config.rig.cam[0].height),
                   "replay only: left + right frame buffers"});
 
+  return rows;
+}
+
+}  // namespace
+
+int run_budget(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
+  const Args args("budget", argv, {}, {"config", "dataset"});
+  args.require_positionals(0, "");
+
+  // Calibration: a dataset's sensor.yaml, else the D455 at its default 848x480 mode; a config
+  // file overrides on top of either.
+  RigCalibration rig = d455::d455_nominal_calibration(848, 480, 30.0, 200.0);
+  std::string source = "D455 nominal 848x480";
+  if (args.get("dataset")) {
+    hal::EurocReader reader;
+    reader.open(*args.get("dataset"));
+    rig = reader.calibration();
+    source = *args.get("dataset");
+  }
+  const AppConfig config = config_of(args, rig, err);
+  if (args.get("config")) source += " + " + *args.get("config");
+
+  const std::vector<Row> rows = budget_rows(config);
   std::size_t total = 0;
   out << "memory budget (" << source << ", max_cnt " << config.max_cnt << ")\n";
   char line[200];
