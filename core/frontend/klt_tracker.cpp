@@ -113,7 +113,7 @@ float mean_abs_error(const float* t, const float* w, int nn) {
 // products (at most 255 x 128, 16 bits) and the float out is that sum / 128, exact. The
 // arithmetic is integer throughout: every machine gives the same floats, with 8 samples per
 // vector instruction (NEON's u8 x u8 multiply-accumulate; SSE2 on 16-bit lanes). The position
-// is quantized to 1/128 px, below the 0.01 px at which the tracker stops.
+// is quantized in steps of 1/128 px (within 1/256 px), below the 0.01 px at which the tracker stops.
 constexpr int kWeightBits = 7;
 constexpr int kWeightOne = 1 << kWeightBits;
 constexpr int kChunk = 8;  // samples per vector step
@@ -380,7 +380,7 @@ Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels,
   // last iteration's window when it is within epsilon_px of the result.
   if (!converged) {
     sample_fixed<false>(J0, result.x() - static_cast<float>(half), result.y() - static_cast<float>(half),
-                           options.window_px, ws.warped);
+                        options.window_px, ws.warped);
   }
   const int nn = options.window_px * options.window_px;
   // In 128 x grey levels, as the samples.
