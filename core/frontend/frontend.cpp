@@ -84,6 +84,11 @@ Frontend::Frontend(const FrontendOptions& options, const RigCalibration& calib) 
   for (int k = 0; k < 2; ++k) {
     for (int c = 0; c < 2; ++c) pyr_[k][c] = std::make_unique<ImagePyramid>(cam_[c].width(), cam_[c].height(), levels);
   }
+  // Levels 0 and 1 are kept: 3D features track on levels_3d = 2, and 95 % of the templates a
+  // replay samples are at those levels (coarser ones come with the rarer 4-level tracks).
+  constexpr int kCachedTemplateLevels = 2;
+  templates_ = std::make_unique<KltTemplateCache>(2 * options_.max_cnt, std::min(levels, kCachedTemplateLevels),
+                                                  klt_template_floats(options_.klt.window_px));
   detector_ = std::make_unique<CornerDetector>(std::max(cam_[0].width(), cam_[1].width()),
                                                std::max(cam_[0].height(), cam_[1].height()));
   if (cam_[0].width() != cam_[1].width() || cam_[0].height() != cam_[1].height()) {
@@ -127,20 +132,23 @@ void Frontend::track_left(const Eigen::Matrix3f* R_curr_prev, FrontendFrameStats
     const Eigen::Vector2f guess = R_curr_prev != nullptr ? predict(cam_[0], *R_curr_prev, t.uv) : t.uv;
     int levels = t.stereo ? options_.levels_3d : options_.levels_2d;
     Eigen::Vector2f p = guess;
-    Status s = klt_track(prev, curr, levels, options_.klt, t.uv, &p);
+    Status s = klt_track(prev, curr, levels, options_.klt, t.uv, &p, templates_.get(), t.slot);
     if (s != Status::kOk && t.stereo && options_.levels_2d > levels) {
       // The paper's split: 3D features try the cheap 2-level pyramid first, then all 4 levels.
       ++st->retried_3d;
       levels = options_.levels_2d;
       p = guess;
-      s = klt_track(prev, curr, levels, options_.klt, t.uv, &p);
+      s = klt_track(prev, curr, levels, options_.klt, t.uv, &p, templates_.get(), t.slot);
       if (s == Status::kOk) ++st->retried_3d_ok;
     }
     if (s != Status::kOk) {
       ++st->lost_klt;
       continue;
     }
-    if (!confirmed(prev, curr, levels, t.uv, p, options_.fb_max_px)) {
+    // The templates at p in this image go to this frame's slot w: the stereo match and the next
+    // frame's forward track start from p too.
+    const int slot = cur_ * options_.max_cnt + static_cast<int>(w);
+    if (!confirmed(prev, curr, levels, t.uv, p, options_.fb_max_px, slot)) {
       ++st->lost_fb;
       continue;
     }
@@ -151,6 +159,7 @@ void Frontend::track_left(const Eigen::Matrix3f* R_curr_prev, FrontendFrameStats
     }
     b_prev_[w] = t.bearing;
     b_curr_[w] = b;
+    t.slot = slot;
     t.right_guess = t.stereo ? Eigen::Vector2f(t.uv_right + (p - t.uv)) : kNan2;
     t.uv = p;
     t.bearing = b;
@@ -256,6 +265,7 @@ int Frontend::detection_budget(std::size_t tracks_in_camera) const {
 void Frontend::detect_left(FrontendFrameStats* st) {
   const int budget = detection_budget(left_.size());
   if (budget == 0) return;
+  const std::size_t first_new = left_.size();
   const int found = detector_->detect(pyr_[cur_][0]->level(0), budget, options_.detector, new_px_);
   for (int i = 0; i < found; ++i) {
     LeftTrack t;
@@ -268,12 +278,29 @@ void Frontend::detect_left(FrontendFrameStats* st) {
     left_.push_back(t);
     ++st->new_left;
   }
+  assign_template_slots(first_new);
+}
+
+void Frontend::assign_template_slots(std::size_t first_new) {
+  const int base = cur_ * options_.max_cnt;
+  std::fill(slot_used_, slot_used_ + options_.max_cnt, std::uint8_t{0});
+  for (std::size_t i = 0; i < first_new; ++i) {
+    const int k = left_[i].slot - base;
+    if (k >= 0 && k < options_.max_cnt) slot_used_[k] = 1;
+  }
+  // left_ never holds more than max_cnt tracks (detection_budget): a free slot is always left.
+  int k = 0;
+  for (std::size_t i = first_new; i < left_.size(); ++i) {
+    while (k < options_.max_cnt && slot_used_[k] != 0) ++k;
+    left_[i].slot = k < options_.max_cnt ? base + k++ : -1;
+  }
 }
 
 bool Frontend::confirmed(const ImagePyramid& from, const ImagePyramid& to, int levels, const Eigen::Vector2f& p_from,
-                         const Eigen::Vector2f& p_to, float max_px) const {
+                         const Eigen::Vector2f& p_to, float max_px, int slot) {
   Eigen::Vector2f back = p_from;
-  return klt_track(to, from, std::min(levels, options_.levels_back), options_.klt, p_to, &back) == Status::kOk &&
+  return klt_track(to, from, std::min(levels, options_.levels_back), options_.klt, p_to, &back, templates_.get(),
+                   slot) == Status::kOk &&
          !((back - p_from).squaredNorm() > max_px * max_px);
 }
 
@@ -282,7 +309,7 @@ bool Frontend::confirmed(const ImagePyramid& from, const ImagePyramid& to, int l
 // recovers from the infinity guess. Older features keep their single guess. A feature matched in
 // the previous frame starts next to its match: like temporal 3D tracking it uses levels_3d first
 // and falls back to the full levels_stereo pyramid.
-Frontend::StereoMatch Frontend::match_track(const LeftTrack& t, const Eigen::Vector2f& guess, bool had_match) const {
+Frontend::StereoMatch Frontend::match_track(const LeftTrack& t, const Eigen::Vector2f& guess, bool had_match) {
   const ImagePyramid& L = *pyr_[cur_][0];
   const ImagePyramid& R = *pyr_[cur_][1];
   const int n_hyp = (t.length == 0) ? 1 + kStereoDepthHypotheses : (had_match ? 2 : 1);
@@ -296,7 +323,7 @@ Frontend::StereoMatch Frontend::match_track(const LeftTrack& t, const Eigen::Vec
       continue;
     }
     Eigen::Vector2f pr = start;
-    if (klt_track(L, R, levels, options_.klt, t.uv, &pr) != Status::kOk) continue;
+    if (klt_track(L, R, levels, options_.klt, t.uv, &pr, templates_.get(), t.slot) != Status::kOk) continue;
     if (!confirmed(L, R, levels, t.uv, pr, options_.stereo_fb_max_px)) continue;
     Eigen::Vector3f br;
     if (!cam_[1].unproject(pr, &br)) continue;

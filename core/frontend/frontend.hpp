@@ -106,6 +106,7 @@ class Frontend {
     Eigen::Vector3f bearing_right = Eigen::Vector3f::UnitZ();
     Eigen::Vector2f xy_right = Eigen::Vector2f::Zero();
     Eigen::Vector2f right_guess = Eigen::Vector2f::Zero();  // where the right match was sought
+    int slot = -1;  // templates_' slot holding the KLT templates at uv (-1: none)
   };
   struct RightTrack {
     std::uint32_t id = 0;
@@ -134,12 +135,14 @@ class Frontend {
     float epipolar_px = 0.0f;
   };
   // The right-image match of left track t from guess (and the depth hypotheses of a new track).
-  StereoMatch match_track(const LeftTrack& t, const Eigen::Vector2f& guess, bool had_match) const;
+  StereoMatch match_track(const LeftTrack& t, const Eigen::Vector2f& guess, bool had_match);
   // The backward (confirmation) track of a forward track p_from -> p_to: from p_to in `to` back
   // into `from`, starting at p_from, on at most levels_back of `levels`; true when it lands
-  // within max_px of p_from.
+  // within max_px of p_from. slot: templates_' slot for p_to's templates in `to` (-1: none).
   bool confirmed(const ImagePyramid& from, const ImagePyramid& to, int levels, const Eigen::Vector2f& p_from,
-                 const Eigen::Vector2f& p_to, float max_px) const;
+                 const Eigen::Vector2f& p_to, float max_px, int slot = -1);
+  // A slot of this frame's half of templates_ for each new left track (none in use by a track).
+  void assign_template_slots(std::size_t first_new);
   void detect_right(FrontendFrameStats* st);
   void write_output(const StereoFrame& frame, FrameFeatures* out) const;
   Eigen::Vector2f predict(const Camera& cam, const Eigen::Matrix3f& R_curr_prev, const Eigen::Vector2f& uv) const;
@@ -156,6 +159,9 @@ class Frontend {
   bool has_prev_ = false;
   bool prev_right_valid_ = false;
   std::unique_ptr<CornerDetector> detector_;
+  // Left tracks' KLT templates in the left pyramid they sit in: max_cnt slots per frame parity,
+  // this frame's half cur_ * max_cnt .. + max_cnt - 1 (klt_template_cache.hpp).
+  std::unique_ptr<KltTemplateCache> templates_;
 
   FixedVector<LeftTrack, kCap> left_;
   FixedVector<RightTrack, kCap> right_;
@@ -168,6 +174,7 @@ class Frontend {
   Eigen::Vector3f b_curr_[kCap];
   std::uint8_t inlier_[kCap];
   std::uint16_t order_[kCap];
+  std::uint8_t slot_used_[kCap];
   Eigen::Vector2f new_px_[kCap];
 };
 

@@ -82,6 +82,7 @@ void downsample(const ImageView& src, const ImageView& dst, std::uint16_t* row_t
 Status ImagePyramid::build(const ImageView& image) {
   const ImageView& l0 = views_[0];
   if (!image.valid() || image.width != l0.width || image.height != l0.height) return Status::kInvalidInput;
+  ++generation_;
   auto* dst = const_cast<std::uint8_t*>(l0.data);
   if (image.stride == l0.width) {
     std::memcpy(dst, image.data, static_cast<std::size_t>(l0.width) * static_cast<std::size_t>(l0.height));

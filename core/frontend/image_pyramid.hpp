@@ -25,9 +25,13 @@ class ImagePyramid {
 
   int levels() const { return levels_; }
   const ImageView& level(int i) const { return views_[static_cast<std::size_t>(i)]; }
+  // Counts the successful builds: with the object's address it names the images the pyramid
+  // holds (KltTemplateCache keys its templates by both).
+  std::uint64_t generation() const { return generation_; }
 
  private:
   int levels_ = 0;
+  std::uint64_t generation_ = 0;
   std::vector<std::uint8_t> storage_;          // all levels, packed rows
   std::vector<std::uint16_t> row_tmp_;         // horizontal pass of one output row (x5 rows)
   ImageView views_[capacity::kMaxPyramidLevels];

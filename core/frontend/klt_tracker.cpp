@@ -272,8 +272,8 @@ void sample_patch_bilinear(const ImageView& image, float x, float y, int n, floa
 
 namespace {
 
-// One klt_track call's buffers: the template with its gradients and the warped window (stack, no
-// allocation).
+// One klt_track call's buffers: the patch a template is cut from, a template with its gradients
+// when no cache keeps it, and the warped window (stack, no allocation).
 struct KltWorkspace {
   static constexpr int kMaxN = KltOptions::kMaxWindowPx;
   static constexpr int kMaxT = kMaxN + 2;
@@ -283,34 +283,74 @@ struct KltWorkspace {
   alignas(16) float gx[kMaxN * kMaxN + kLanes];
   alignas(16) float gy[kMaxN * kMaxN + kLanes];
   alignas(16) float warped[kMaxN * kMaxN];
+};
+
+// A level's template, in the workspace or in a cache block.
+struct TemplateRef {
+  float* tmpl = nullptr;
+  float* gx = nullptr;
+  float* gy = nullptr;
   GradientSums gs;
 };
 
-// Samples the template around p in I and its gradients into ws. False when the window is
-// untextured: the smallest eigenvalue of the mean structure tensor is below min_eigen.
-bool prepare_template(const ImageView& I, const Eigen::Vector2f& p, const KltOptions& options, KltWorkspace* ws) {
+// Floats of each array in a cache block, whole vectors with kLanes to spare (as the workspace).
+int template_stride(int n) { return (n * n + 2 * kLanes - 1) / kLanes * kLanes; }
+
+// A cache block: template, gradients, then the sums and the usable flag.
+constexpr int kSumFloats = 8;
+
+// Samples the template around p in I and its gradients into t (arrays of n * n + kLanes floats).
+// False when the window is untextured: the smallest eigenvalue of the mean structure tensor is
+// below min_eigen.
+bool prepare_template(const ImageView& I, const Eigen::Vector2f& p, const KltOptions& options, float* tmpl_ext,
+                      TemplateRef* t) {
   const int n = options.window_px, half = n / 2, ne = n + 2, nn = n * n;
   const float inv_area = 1.0f / static_cast<float>(nn);
-  sample_fixed<false>(I, p.x() - static_cast<float>(half + 1), p.y() - static_cast<float>(half + 1), ne, ws->tmpl_ext);
-  std::fill(ws->tmpl_ext + ne * ne, ws->tmpl_ext + ne * ne + kLanes, 0.0f);  // read by the last row's spare lanes
-  template_and_gradients(ws->tmpl_ext, n, ws->tmpl, ws->gx, ws->gy);
-  ws->gs = gradient_sums(ws->gx, ws->gy, nn);
-  const float a = ws->gs.gxx * inv_area, b = ws->gs.gxy * inv_area, c2 = ws->gs.gyy * inv_area;
+  sample_fixed<false>(I, p.x() - static_cast<float>(half + 1), p.y() - static_cast<float>(half + 1), ne, tmpl_ext);
+  std::fill(tmpl_ext + ne * ne, tmpl_ext + ne * ne + kLanes, 0.0f);  // read by the last row's spare lanes
+  template_and_gradients(tmpl_ext, n, t->tmpl, t->gx, t->gy);
+  t->gs = gradient_sums(t->gx, t->gy, nn);
+  const float a = t->gs.gxx * inv_area, b = t->gs.gxy * inv_area, c2 = t->gs.gyy * inv_area;
   const float min_eig = 0.5f * ((a + c2) - std::sqrt((a - c2) * (a - c2) + 4.0f * b * b));
   // The samples are 128 x grey levels (sample_chunk), the tensor 128^2 x (grey/px)^2.
   constexpr float kScale2 = static_cast<float>(kWeightOne * kWeightOne);
   return min_eig >= options.min_eigen * kScale2 && min_eig > 0.0f;
 }
 
+// Level `level`'s template of p_prev in prev: read from the cache slot when it holds it, else
+// sampled, into the slot when there is one. False when the window is untextured.
+bool level_template(const ImagePyramid& prev, int level, const Eigen::Vector2f& p_prev, const KltOptions& options,
+                    KltTemplateCache* cache, int slot, KltWorkspace* ws, TemplateRef* t) {
+  const Eigen::Vector2f p = p_prev * (1.0f / static_cast<float>(1 << level));
+  bool filled = false;
+  float* blk = cache != nullptr ? cache->block(slot, prev, p_prev, level, &filled) : nullptr;
+  if (blk == nullptr) {
+    *t = TemplateRef{ws->tmpl, ws->gx, ws->gy, GradientSums{}};
+    return prepare_template(prev.level(level), p, options, ws->tmpl_ext, t);
+  }
+  const int stride = template_stride(options.window_px);
+  *t = TemplateRef{blk, blk + stride, blk + 2 * stride, GradientSums{}};
+  float* sums = blk + 3 * stride;
+  if (filled) {
+    t->gs = GradientSums{sums[0], sums[1], sums[2], sums[3], sums[4]};
+    return sums[5] != 0.0f;
+  }
+  const bool usable = prepare_template(prev.level(level), p, options, ws->tmpl_ext, t);
+  const float kept[kSumFloats] = {t->gs.gxx, t->gs.gxy, t->gs.gyy, t->gs.gx, t->gs.gy, usable ? 1.0f : 0.0f, 0.0f, 0.0f};
+  std::copy(kept, kept + kSumFloats, sums);
+  cache->mark_filled(slot, level);
+  return usable;
+}
+
 // Gauss-Newton iterations of one level from the carried displacement g: the flow nu on top of it.
 // False when the window left J entirely or the flow ran farther than the window reaches (it has
-// locked onto something else). *converged: the last update was below epsilon_px, so ws->warped
+// locked onto something else). *converged: the last update was below epsilon_px, so warped
 // (sampled before it) is the window at the result to within epsilon_px.
 bool iterate_level(const ImageView& J, const Eigen::Vector2f& p, const Eigen::Vector2f& g, const KltOptions& options,
-                   float epsilon_px, KltWorkspace* ws, Eigen::Vector2f* nu, bool* converged) {
+                   float epsilon_px, const TemplateRef& t, float* warped, Eigen::Vector2f* nu, bool* converged) {
   const int n = options.window_px, half = n / 2, nn = n * n;
   const float inv_area = 1.0f / static_cast<float>(nn);
-  const GradientSums& gs = ws->gs;
+  const GradientSums& gs = t.gs;
   const float inv_det = 1.0f / (gs.gxx * gs.gyy - gs.gxy * gs.gxy);
   nu->setZero();
   *converged = false;
@@ -320,11 +360,11 @@ bool iterate_level(const ImageView& J, const Eigen::Vector2f& p, const Eigen::Ve
           qx < static_cast<float>(J.width + half) && qy < static_cast<float>(J.height + half))) {
       return false;
     }
-    sample_fixed<false>(J, qx - static_cast<float>(half), qy - static_cast<float>(half), n, ws->warped);
+    sample_fixed<false>(J, qx - static_cast<float>(half), qy - static_cast<float>(half), n, warped);
     // Intensity offset between the windows (exposure, or the two cameras' gains) removed:
     // e = (T - mean T) - (J - mean J) = d - mean d with d = T - J, so
     // sum e g = sum d g - mean(d) sum g (d is small near convergence: no cancellation).
-    const ErrorSums es = error_sums(ws->tmpl, ws->warped, ws->gx, ws->gy, nn);
+    const ErrorSums es = error_sums(t.tmpl, warped, t.gx, t.gy, nn);
     const float mean_d = es.d * inv_area;
     const float bx = es.dgx - mean_d * gs.gx;
     const float by = es.dgy - mean_d * gs.gy;
@@ -342,8 +382,10 @@ bool iterate_level(const ImageView& J, const Eigen::Vector2f& p, const Eigen::Ve
 
 }  // namespace
 
+int klt_template_floats(int window_px) { return 3 * template_stride(window_px) + kSumFloats; }
+
 Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels, const KltOptions& options,
-                 const Eigen::Vector2f& p_prev, Eigen::Vector2f* p_curr) {
+                 const Eigen::Vector2f& p_prev, Eigen::Vector2f* p_curr, KltTemplateCache* cache, int slot) {
   KltWorkspace ws;
   const int half = options.window_px / 2;
   levels = std::min({levels, prev.levels(), curr.levels()});
@@ -353,18 +395,19 @@ Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels,
   // Displacement (guess + flow) carried from level to level, in the current level's pixels.
   Eigen::Vector2f g = (*p_curr - p_prev) * top_scale;
   bool converged = false;
+  TemplateRef t;
   for (int level = levels - 1; level >= 0; --level) {
     const Eigen::Vector2f p = p_prev * (1.0f / static_cast<float>(1 << level));
     // A coarse level that cannot be used (blurred flat, or mostly outside a small image) is
     // skipped: the finer levels still refine the carried displacement. Level 0 must succeed.
-    if (!prepare_template(prev.level(level), p, options, &ws)) {
+    if (!level_template(prev, level, p_prev, options, cache, slot, &ws, &t)) {
       if (level == 0) return Status::kNotConverged;
       g *= 2.0f;
       continue;
     }
     Eigen::Vector2f nu;
-    if (!iterate_level(curr.level(level), p, g, options, level == 0 ? options.epsilon_px : options.coarse_epsilon_px, &ws,
-                       &nu, &converged)) {
+    if (!iterate_level(curr.level(level), p, g, options, level == 0 ? options.epsilon_px : options.coarse_epsilon_px, t,
+                       ws.warped, &nu, &converged)) {
       if (level == 0) return Status::kNotConverged;
       nu.setZero();
     }
@@ -384,7 +427,7 @@ Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels,
   }
   const int nn = options.window_px * options.window_px;
   // In 128 x grey levels, as the samples.
-  if (!(mean_abs_error(ws.tmpl, ws.warped, nn) <= options.max_mean_abs_error * static_cast<float>(kWeightOne))) {
+  if (!(mean_abs_error(t.tmpl, ws.warped, nn) <= options.max_mean_abs_error * static_cast<float>(kWeightOne))) {
     return Status::kNotConverged;
   }
   *p_curr = result;

@@ -14,6 +14,7 @@
 #include "core/common/image_view.hpp"
 #include "core/common/status.hpp"
 #include "core/frontend/image_pyramid.hpp"
+#include "core/frontend/klt_template_cache.hpp"
 
 namespace ums {
 
@@ -37,8 +38,15 @@ struct KltOptions {
 // pass p_prev when there is none) and the tracked position on success. Returns kOk, or
 // kNotConverged when the window is untextured, the point left the image or the final residual
 // is too large (then *p_curr is unspecified).
+// With a cache (built with klt_template_floats(options.window_px) floats per level), the
+// templates of p_prev in prev come from its slot `slot` when it holds them and go there when it
+// does not: the result is the same bits either way.
 Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels, const KltOptions& options,
-                 const Eigen::Vector2f& p_prev, Eigen::Vector2f* p_curr);
+                 const Eigen::Vector2f& p_prev, Eigen::Vector2f* p_curr, KltTemplateCache* cache = nullptr,
+                 int slot = -1);
+
+// Floats of one level's template in a KltTemplateCache for windows of window_px.
+int klt_template_floats(int window_px);
 
 // Samples an n x n patch whose top-left sample sits at (x, y) (sub-pixel, level px) with bilinear
 // interpolation in fixed point (grey levels out): with X = round(128 ax), Y = round(128 ay) for
