@@ -9,6 +9,12 @@
 
 #include "core/frontend/klt_tracker.hpp"
 
+#if defined(__ARM_NEON)
+#include <arm_neon.h>
+#elif defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 namespace ums {
 
 void DetectorOptions::validate() const {
@@ -69,10 +75,131 @@ bool has_zero_byte(const std::uint8_t* p) {
   return ((v - 0x0101010101010101ULL) & ~v & 0x8080808080808080ULL) != 0;
 }
 
-// out[x] = a[x] + b[x] + c[x] for x in x0 .. x1-1 (separate arrays: vectorises).
+// The response's kernels in 4- and 8-lane vectors (GCC vector extensions: SSE2 on x86-64, NEON
+// on aarch64), each followed by the scalar formula for the row's last pixels. Every lane does
+// the scalar formula's operations in its order (integer Sobel, exact float products and sums,
+// then the rounded eigenvalue; no contraction), so the vector and scalar pixels, and every
+// machine, give the same bits.
+typedef float F4 __attribute__((vector_size(16)));
+typedef short S8 __attribute__((vector_size(16)));
+
+inline F4 load4(const float* p) {
+  F4 v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+inline void store4(float* p, F4 v) { std::memcpy(p, &v, sizeof v); }
+// 8 pixels widened to 16-bit lanes, and a half of 8 such lanes as floats (exact). The widenings
+// are the targets' own instructions: GCC's generic conversions build them lane by lane.
+inline S8 load8_u8(const std::uint8_t* p) {
+#if defined(__ARM_NEON)
+  return vreinterpretq_s16_u16(vmovl_u8(vld1_u8(p)));
+#elif defined(__SSE2__)
+  return (S8)_mm_unpacklo_epi8(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(p)), _mm_setzero_si128());
+#else
+  S8 v;
+  for (int k = 0; k < 8; ++k) v[k] = p[k];
+  return v;
+#endif
+}
+template <int kHalf>
+inline F4 half_to_float(S8 v) {
+#if defined(__ARM_NEON)
+  return vcvtq_f32_s32(vmovl_s16(kHalf == 0 ? vget_low_s16(v) : vget_high_s16(v)));
+#elif defined(__SSE2__)
+  const __m128i w = (__m128i)v;
+  const __m128i wide = kHalf == 0 ? _mm_unpacklo_epi16(w, w) : _mm_unpackhi_epi16(w, w);
+  return _mm_cvtepi32_ps(_mm_srai_epi32(wide, 16));  // the sign-extended lanes
+#else
+  return F4{static_cast<float>(v[4 * kHalf]), static_cast<float>(v[4 * kHalf + 1]), static_cast<float>(v[4 * kHalf + 2]),
+            static_cast<float>(v[4 * kHalf + 3])};
+#endif
+}
+inline F4 sqrt4(F4 v) {
+#if defined(__ARM_NEON) && defined(__aarch64__)  // ARMv7 NEON has no vector square root
+  return vsqrtq_f32(v);
+#elif defined(__SSE2__)
+  return _mm_sqrt_ps(v);
+#else
+  for (int k = 0; k < 4; ++k) v[k] = std::sqrt(v[k]);
+  return v;
+#endif
+}
+
+// Sobel gradients of row r1 (r0 above, r2 below) and their products, x in x0 .. x1-1 (x0 >= 1,
+// x1 <= width - 1): 8 pixels per step, on 16-bit lanes (|dx|, |dy| <= 4 * 255).
+void sobel_products(const std::uint8_t* __restrict r0, const std::uint8_t* __restrict r1,
+                    const std::uint8_t* __restrict r2, int x0, int x1, float* __restrict xx, float* __restrict xy,
+                    float* __restrict yy) {
+  int x = x0;
+  for (; x + 8 <= x1; x += 8) {  // reads up to x + 8 <= width - 1
+    const S8 a0 = load8_u8(r0 + x - 1), a1 = load8_u8(r0 + x), a2 = load8_u8(r0 + x + 1);
+    const S8 b0 = load8_u8(r1 + x - 1), b2 = load8_u8(r1 + x + 1);
+    const S8 c0 = load8_u8(r2 + x - 1), c1 = load8_u8(r2 + x), c2 = load8_u8(r2 + x + 1);
+    const S8 dx = (a2 - a0) + 2 * (b2 - b0) + (c2 - c0);
+    const S8 dy = (c0 - a0) + 2 * (c1 - a1) + (c2 - a2);
+    const F4 fx[2] = {half_to_float<0>(dx), half_to_float<1>(dx)};
+    const F4 fy[2] = {half_to_float<0>(dy), half_to_float<1>(dy)};
+    for (int h = 0; h < 2; ++h) {
+      store4(xx + x + 4 * h, fx[h] * fx[h]);
+      store4(xy + x + 4 * h, fx[h] * fy[h]);
+      store4(yy + x + 4 * h, fy[h] * fy[h]);
+    }
+  }
+  for (; x < x1; ++x) {
+    const int dx = (r0[x + 1] - r0[x - 1]) + 2 * (r1[x + 1] - r1[x - 1]) + (r2[x + 1] - r2[x - 1]);
+    const int dy = (r2[x - 1] - r0[x - 1]) + 2 * (r2[x] - r0[x]) + (r2[x + 1] - r0[x + 1]);
+    const float fdx = static_cast<float>(dx), fdy = static_cast<float>(dy);
+    xx[x] = fdx * fdx;
+    xy[x] = fdx * fdy;
+    yy[x] = fdy * fdy;
+  }
+}
+
+// out[x] = a[x] + b[x] + c[x] for x in x0 .. x1-1.
 void sum3_rows(const float* __restrict a, const float* __restrict b, const float* __restrict c, float* __restrict out,
                int x0, int x1) {
-  for (int x = x0; x < x1; ++x) out[x] = a[x] + b[x] + c[x];
+  int x = x0;
+  for (; x + 4 <= x1; x += 4) store4(out + x, load4(a + x) + load4(b + x) + load4(c + x));
+  for (; x < x1; ++x) out[x] = a[x] + b[x] + c[x];
+}
+
+// The smaller eigenvalue of the 3x3-summed tensor from the vertical sums va, vb, vc (Ixx, Ixy,
+// Iyy), x in x0 .. x1-1 (x0 >= 1, x1 <= width - 1).
+void shi_tomasi_row(const float* __restrict va, const float* __restrict vb, const float* __restrict vc, float norm,
+                    int x0, int x1, float* __restrict out) {
+  int x = x0;
+  for (; x + 4 <= x1; x += 4) {
+    const F4 sa = (load4(va + x - 1) + load4(va + x) + load4(va + x + 1)) * norm;
+    const F4 sb = (load4(vb + x - 1) + load4(vb + x) + load4(vb + x + 1)) * norm;
+    const F4 sc = (load4(vc + x - 1) + load4(vc + x) + load4(vc + x + 1)) * norm;
+    store4(out + x, 0.5f * ((sa + sc) - sqrt4((sa - sc) * (sa - sc) + 4.0f * sb * sb)));
+  }
+  for (; x < x1; ++x) {
+    const float sa = (va[x - 1] + va[x] + va[x + 1]) * norm;
+    const float sb = (vb[x - 1] + vb[x] + vb[x + 1]) * norm;
+    const float sc = (vc[x - 1] + vc[x] + vc[x + 1]) * norm;
+    out[x] = 0.5f * ((sa + sc) - std::sqrt((sa - sc) * (sa - sc) + 4.0f * sb * sb));
+  }
+}
+
+// max(lanes, out[x] at pixels with m[x] == 0) over x in x0 .. x1-1: 4 pixels at once where all
+// four are free (a maximum is exact in any order).
+void masked_max(const float* __restrict out, const std::uint8_t* __restrict m, int x0, int x1, F4* lanes) {
+  F4 mx = *lanes;
+  for (int x = x0; x < x1;) {
+    std::uint32_t four = 1;
+    if (x + 4 <= x1) std::memcpy(&four, m + x, sizeof four);
+    if (four == 0) {
+      const F4 v = load4(out + x);
+      mx = v > mx ? v : mx;
+      x += 4;
+    } else {
+      mx[0] = std::max(mx[0], m[x] == 0 ? out[x] : 0.0f);
+      ++x;
+    }
+  }
+  *lanes = mx;
 }
 
 // out = a | b | c, rows of column-group bits.
@@ -146,58 +273,34 @@ void CornerDetector::mark_needed_groups(int b) {
 float CornerDetector::compute_response(const ImageView& img, int b) {
   const int w = width_, h = height_;
   const float kNorm = 1.0f / (8.0f * 8.0f * 9.0f);  // Sobel gain 8 per gradient, 9-pixel block mean
-  auto products = [&](int y, int x0, int x1, float* __restrict xx, float* __restrict xy, float* __restrict yy) {
-    const std::uint8_t* __restrict r0 = img.row(y - 1);
-    const std::uint8_t* __restrict r1 = img.row(y);
-    const std::uint8_t* __restrict r2 = img.row(y + 1);
-    for (int x = x0; x < x1; ++x) {
-      const int dx = (r0[x + 1] - r0[x - 1]) + 2 * (r1[x + 1] - r1[x - 1]) + (r2[x + 1] - r2[x - 1]);
-      const int dy = (r2[x - 1] - r0[x - 1]) + 2 * (r2[x] - r0[x]) + (r2[x + 1] - r0[x + 1]);
-      const float fdx = static_cast<float>(dx), fdy = static_cast<float>(dy);
-      xx[x] = fdx * fdx;
-      xy[x] = fdx * fdy;
-      yy[x] = fdy * fdy;
-    }
-  };
   float* base = rows_.data();
   auto slot = [&](int y, int which) { return base + static_cast<std::size_t>(((y % 3) * 3 + which) * w); };
   auto need = [&](int y) { return need_.data() + static_cast<std::size_t>(y) * kGroupWords; };
   float* va = base + static_cast<std::size_t>(9 * w);  // vertical sums of the three products
-  const float* __restrict vb = va + w;
-  const float* __restrict vc = vb + w;
-  // Eight independent running maxima (the maximum is exact in any order) let the loop vectorise.
-  constexpr int kLanes = 8;
-  float lane_max[kLanes] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
-  float max_r = 0.0f;
+  const float* vb = va + w;
+  const float* vc = vb + w;
+  F4 lanes = {0.0f, 0.0f, 0.0f, 0.0f};  // responses are >= 0: 0 is the neutral start
   for (int y = 1; y < h - 1; ++y) {
     std::uint64_t prod[kGroupWords];
     or3(need(y - 1), need(y), need(y + 1), prod);
-    for_each_run(prod, 2, 1, w - 1, [&](int x0, int x1) { products(y, x0, x1, slot(y, 0), slot(y, 1), slot(y, 2)); });
+    for_each_run(prod, 2, 1, w - 1, [&](int x0, int x1) {
+      sobel_products(img.row(y - 1), img.row(y), img.row(y + 1), x0, x1, slot(y, 0), slot(y, 1), slot(y, 2));
+    });
     if (y < 3) continue;
     const int yc = y - 1;  // rows yc-1, yc, yc+1 = y-2, y-1, y are all in the ring
     for_each_run(need(yc), 2, 1, w - 1, [&](int x0, int x1) {
       for (int k = 0; k < 3; ++k) sum3_rows(slot(y - 2, k), slot(y - 1, k), slot(y, k), va + k * w, x0, x1);
     });
-    float* __restrict out = response_.data() + static_cast<std::size_t>(yc) * static_cast<std::size_t>(w);
-    const std::uint8_t* __restrict m = mask_.data() + static_cast<std::size_t>(yc) * static_cast<std::size_t>(w);
+    float* out = response_.data() + static_cast<std::size_t>(yc) * static_cast<std::size_t>(w);
+    const std::uint8_t* m = mask_.data() + static_cast<std::size_t>(yc) * static_cast<std::size_t>(w);
     const bool in_border = yc >= b && yc < h - b;
     for_each_run(need(yc), 1, 2, w - 2, [&](int x0, int x1) {
-      for (int x = x0; x < x1; ++x) {
-        const float sa = (va[x - 1] + va[x] + va[x + 1]) * kNorm;
-        const float sb = (vb[x - 1] + vb[x] + vb[x + 1]) * kNorm;
-        const float sc = (vc[x - 1] + vc[x] + vc[x + 1]) * kNorm;
-        out[x] = 0.5f * ((sa + sc) - std::sqrt((sa - sc) * (sa - sc) + 4.0f * sb * sb));
-      }
-      if (!in_border) return;
-      int x = std::max(x0, b);
-      const int xe = std::min(x1, w - b);
-      for (; x + kLanes <= xe; x += kLanes) {
-        for (int k = 0; k < kLanes; ++k) lane_max[k] = std::max(lane_max[k], m[x + k] == 0 ? out[x + k] : 0.0f);
-      }
-      for (; x < xe; ++x) max_r = std::max(max_r, m[x] == 0 ? out[x] : 0.0f);
+      shi_tomasi_row(va, vb, vc, kNorm, x0, x1, out);
+      if (in_border) masked_max(out, m, std::max(x0, b), std::min(x1, w - b), &lanes);
     });
   }
-  for (float v : lane_max) max_r = std::max(max_r, v);
+  float max_r = 0.0f;
+  for (int k = 0; k < 4; ++k) max_r = std::max(max_r, lanes[k]);
   return max_r;
 }
 
