@@ -358,10 +358,14 @@ int CornerDetector::detect(const ImageView& image, int max_new, const DetectorOp
       }
     }
   }
-  std::sort_heap(heap_.begin(), heap_.end(), ScoresGreater{});  // descending score
+  // Strongest first, equal scores in scan order. A detection places a few corners among thousands
+  // of maxima, so the candidates leave a max-heap one at a time instead of being sorted.
+  std::make_heap(heap_.begin(), heap_.end(), RanksBelow{});
+  auto end = heap_.end();
   int count = 0;
-  for (const Candidate& c : heap_) {
-    if (count >= max_new) break;
+  while (count < max_new && end != heap_.begin()) {
+    std::pop_heap(heap_.begin(), end, RanksBelow{});
+    const Candidate& c = *--end;
     Eigen::Vector2f p(static_cast<float>(c.x), static_cast<float>(c.y));
     if (!is_free(p)) continue;
     refine_subpixel(image, options, &p);  // keeps the integer position when it fails

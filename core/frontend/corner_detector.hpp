@@ -70,6 +70,14 @@ class CornerDetector {
   struct ScoresGreater {
     bool operator()(const Candidate& l, const Candidate& r) const { return l.score > r.score; }
   };
+  // The selection order as a strict total order: l comes after r (lower score, or the same score
+  // later in scan order).
+  struct RanksBelow {
+    bool operator()(const Candidate& l, const Candidate& r) const {
+      if (l.score != r.score) return l.score < r.score;
+      return l.y != r.y ? l.y > r.y : l.x > r.x;
+    }
+  };
   void offer(const Candidate& c);  // into the bounded min-heap of the strongest
   void mark_needed_groups(int b);  // need_ from the mask
   // Fills response_ in the groups of need_ and returns its maximum over free pixels at least b

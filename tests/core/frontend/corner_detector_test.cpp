@@ -235,3 +235,42 @@ TEST_CASE("the quality threshold is relative to the strongest free response, not
   CHECK(right >= 16);     // 5 columns x 5 rows of faint corners inside the border: 25 found
   CHECK(right == n);
 }
+
+TEST_CASE("corners of equal response are placed in scan order, strongest first") {
+  // Two identical bright squares, 50 px apart: every corner of the right one ties with its twin
+  // on the left. Detection places corners strongest first; of equal ones, the first in scan
+  // order (lower y, then lower x) wins, so each accepted left corner precedes its right twin.
+  const int w = 140, h = 60;
+  ums::test::GreyImage img(w, h, 20);
+  for (int y = 24; y < 32; ++y)
+    for (int x = 0; x < 8; ++x) {
+      img.at(30 + x, y) = 200;
+      img.at(80 + x, y) = 200;
+    }
+  ums::CornerDetector det(w, h);
+  det.clear_mask();
+  ums::DetectorOptions opt;
+  opt.min_distance_px = 3.0f;
+  Eigen::Vector2f pts[16];
+  const int n = det.detect(img.view(), 16, opt, pts);
+  REQUIRE(n >= 8);  // four corners per square
+  // The strongest response and the first pixel in scan order that reaches it.
+  float best = 0.0f;
+  Eigen::Vector2f first(-1.0f, -1.0f);
+  for (int y = opt.border_px; y < h - opt.border_px; ++y)
+    for (int x = opt.border_px; x < w - opt.border_px; ++x)
+      if (det.response(x, y) > best) {
+        best = det.response(x, y);
+        first = Eigen::Vector2f(static_cast<float>(x), static_cast<float>(y));
+      }
+  REQUIRE(first.x() < 60.0f);  // the tie: the left square's corner comes first in scan order
+  CHECK((pts[0] - first).norm() < 1.5f);  // refined by at most a pixel or so
+  // Twins come in pairs: left corner k, then (after any other left corners of the same score)
+  // its right twin 50 px to the right; no right corner precedes its left twin.
+  for (int i = 0; i < n; ++i) {
+    if (pts[i].x() < 60.0f) continue;
+    bool twin_before = false;
+    for (int j = 0; j < i; ++j) twin_before |= (pts[j] + Eigen::Vector2f(50.0f, 0.0f) - pts[i]).norm() < 0.01f;
+    CHECK(twin_before);
+  }
+}
