@@ -22,6 +22,9 @@ inline constexpr int kMaxBlockTangentSize = 9;
 inline constexpr int kMaxResidualBlocks = 8192;
 inline constexpr int kMaxResidualSize = 15;
 inline constexpr int kMaxBlocksPerResidual = 6;
+// Residual rows whose values a solve keeps for solved_residual(), per buffer (two: the iterate and
+// the candidate): 2 per visual residual, 15 per IMU factor.
+inline constexpr int kMaxKeptResidualRows = 16384;
 // Reduced blocks one landmark may couple to (11 poses + 2 extrinsics + td, with spare).
 inline constexpr int kMaxCouplingsPerLandmark = 24;
 // Stored landmark-to-reduced couplings (doubles) over all landmarks: sum of d_B * e.

@@ -91,6 +91,17 @@ class Problem {
   SolverStatus solve(const SolverOptions& options, SolverSummary* summary);
   // Total cost at the current values (kInvalidInput when not finite).
   SolverStatus evaluate_cost(double* cost);
+  // A check of residuals after a solve (outliers) need not evaluate them again: the pass that
+  // visited the values solve() returned kept them. True when they are known: the last solve was
+  // usable and neither the problem nor a variable block's value has changed since (the values are
+  // compared, so this costs one pass over the blocks).
+  bool solved_residuals_current() const;
+  // Residual k's values (before the robust loss, as its function wrote them) at the values solve()
+  // returned; valid while solved_residuals_current(). nullptr when k was not kept: every block of
+  // it constant, or past capacity::kMaxKeptResidualRows.
+  const double* solved_residual(int k) const {
+    return kept_off_[k] < 0 ? nullptr : kept_[kept_cur_] + kept_off_[k];
+  }
 
   // Marginalizes blocks ids[0..n): every residual and prior touching them is linearized at the
   // current values (robust weights included), their landmarks and the listed blocks are removed by
@@ -159,7 +170,8 @@ class Problem {
   void resize_workspace();
 
   // ---- linearization (problem_linearize.cpp) ----
-  bool evaluate_residual(const Residual& rb, bool jacobians, double* r, double* cost);
+  // keep (optional): receives the residual's values before the loss corrects them.
+  bool evaluate_residual(const Residual& rb, bool jacobians, double* r, double* cost, double* keep = nullptr);
   void accumulate_residual(int res_index, const double* r);
   void accumulate_two_row(const Residual& rb, const double* r);
   int accumulate_reduced(const Residual& rb, const double* r);
@@ -169,7 +181,10 @@ class Problem {
   void zero_linear_system();
   bool linear_system_finite() const;
   // Cost (and, with jacobians, H_, b_, landmark blocks) at the current values; false if not finite.
+  // The residuals' values go to kept_[kept_write_] when kept_write_ >= 0.
   bool linearize(bool jacobians, double* cost);
+  void assign_kept_rows();  // kept_off_ (prepare())
+  void snapshot_solution();  // solved_x_, kept_valid_ (end of solve())
   double fixed_cost();
 
   // ---- Levenberg-Marquardt (problem_solve.cpp) ----
@@ -281,6 +296,15 @@ class Problem {
   double max_diag_ = 1e32;
   double scale_l_[capacity::kMaxEliminatedBlocks][3] = {};
   double backup_[capacity::kMaxParameterBlocks][capacity::kMaxBlockAmbientSize] = {};
+
+  // Residual values of the iterate (kept_[kept_cur_]) and of the candidate; the values of the
+  // variable blocks the last usable solve returned (solved_residuals_current()).
+  double kept_[2][capacity::kMaxKeptResidualRows] = {};
+  int kept_off_[capacity::kMaxResidualBlocks] = {};
+  int kept_cur_ = 0;
+  int kept_write_ = -1;
+  bool kept_valid_ = false;
+  double solved_x_[capacity::kMaxParameterBlocks][capacity::kMaxBlockAmbientSize] = {};
 
   // Per-residual workspace.
   double jac_ws_[capacity::kMaxBlocksPerResidual]

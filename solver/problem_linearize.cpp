@@ -72,7 +72,7 @@ __attribute__((always_inline)) inline void add_jtj_2x6(double* Hb, Eigen::Index 
 
 }  // namespace
 
-bool Problem::evaluate_residual(const Residual& rb, bool jacobians, double* r, double* cost) {
+bool Problem::evaluate_residual(const Residual& rb, bool jacobians, double* r, double* cost, double* keep) {
   JacobianView jv[capacity::kMaxBlocksPerResidual];
   for (int j = 0; j < rb.num_blocks; ++j) {
     jac_wanted_[j] = jacobians && rb.variable[j];
@@ -81,6 +81,7 @@ bool Problem::evaluate_residual(const Residual& rb, bool jacobians, double* r, d
   }
   if (!rb.fn->evaluate(rb.params, r, jv)) return false;
   const int rows = rb.rows;
+  if (keep != nullptr) std::copy(r, r + rows, keep);
   double sq = 0.0;
   for (int i = 0; i < rows; ++i) sq += r[i] * r[i];
   if (!std::isfinite(sq)) return false;
@@ -306,14 +307,16 @@ bool Problem::linearize(bool jacobians, double* cost) {
   double r[capacity::kMaxResidualSize];
   double c = 0.0;
   if (jacobians) zero_linear_system();
+  double* kept = kept_write_ >= 0 ? kept_[kept_write_] : nullptr;
+  auto keep = [&](int k) { return kept != nullptr && kept_off_[k] >= 0 ? kept + kept_off_[k] : nullptr; };
   for (int q = 0; q < num_free_res_; ++q) {
-    if (!evaluate_residual(residuals_[free_res_[q]], jacobians, r, &c)) return false;
+    if (!evaluate_residual(residuals_[free_res_[q]], jacobians, r, &c, keep(free_res_[q]))) return false;
     total += c;
     if (jacobians) accumulate_residual(free_res_[q], r);
   }
   for (int l = 0; l < num_lm_; ++l) {
     for (int q = lm_res_begin_[l]; q < lm_res_begin_[l + 1]; ++q) {
-      if (!evaluate_residual(residuals_[lm_res_[q]], jacobians, r, &c)) return false;
+      if (!evaluate_residual(residuals_[lm_res_[q]], jacobians, r, &c, keep(lm_res_[q]))) return false;
       total += c;
       if (jacobians) accumulate_residual(lm_res_[q], r);
     }

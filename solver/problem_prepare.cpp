@@ -17,6 +17,7 @@ SolverStatus Problem::prepare() {
   mark_fixed_priors();
   build_tail_envelope();
   resize_workspace();
+  assign_kept_rows();
   prepared_ = true;
   return SolverStatus::kOk;
 }
@@ -251,6 +252,19 @@ void Problem::build_tail_envelope() {
   // chain: ~2 blocks per column, 26 % of the triangle for 11 frames, 53 % for 5); a dense tail
   // (e.g. a prior over every speed-bias) goes through Eigen's blocked LLT as a whole.
   split_ = n_front_ > 0 && m > 0 && 10 * env <= 3L * m * (m + 1);
+}
+
+// Offsets of the residuals' rows in a kept_ buffer: every residual a linearization visits (one
+// with a variable block), in declaration order, while they fit.
+void Problem::assign_kept_rows() {
+  kept_valid_ = false;
+  int used = 0;
+  for (int k = 0; k < num_residuals_; ++k) {
+    const Residual& rb = residuals_[k];
+    const bool fits = !rb.fixed && used + rb.rows <= capacity::kMaxKeptResidualRows;
+    kept_off_[k] = fits ? used : -1;
+    if (fits) used += rb.rows;
+  }
 }
 
 void Problem::resize_workspace() {

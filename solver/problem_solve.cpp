@@ -58,8 +58,10 @@ struct Problem::LmState {
 
 SolverStatus Problem::solve(const SolverOptions& options, SolverSummary* summary) {
   LmState s(options);
+  kept_valid_ = false;
   bool running = start_solve(s);
   while (running) running = iterate(s);
+  if (usable(s.status)) snapshot_solution();
   s.summary.solve_time_s = seconds_since(s.t0);
   if (summary != nullptr) *summary = s.summary;
   return s.status;
@@ -82,8 +84,10 @@ bool Problem::start_solve(LmState& s) {
   if (!std::isfinite(s.fixed)) return s.end(SolverStatus::kInvalidInput, Termination::kFailure, 0.0);
 
   // Iteration 0.
-  if (!linearize(true, &s.x_cost))
-    return s.end(SolverStatus::kInvalidInput, Termination::kFailure, 0.0);
+  kept_write_ = kept_cur_;
+  const bool linearized = linearize(true, &s.x_cost);
+  kept_write_ = -1;
+  if (!linearized) return s.end(SolverStatus::kInvalidInput, Termination::kFailure, 0.0);
   ++s.summary.linearizations;
   s.summary.initial_cost = s.x_cost + s.fixed;
   set_jacobi_scaling(o.jacobi_scaling);
@@ -114,7 +118,9 @@ bool Problem::iterate(LmState& s) {
 
   const double step_norm = apply_candidate();
   double cand_cost = 0.0;
+  kept_write_ = 1 - kept_cur_;  // the candidate's residuals: current if it is accepted
   if (!linearize(false, &cand_cost)) cand_cost = std::numeric_limits<double>::max();
+  kept_write_ = -1;
   if (candidate_converged(s, step_norm, cand_cost)) return false;
   const double relative_decrease = (s.x_cost - cand_cost) / mcc;
   const bool accept = s.lm ? relative_decrease > s.options.min_relative_decrease
@@ -202,6 +208,7 @@ bool Problem::candidate_converged(LmState& s, double step_norm, double cand_cost
 bool Problem::accept_step(LmState& s, double cand_cost, double relative_decrease) {
   const SolverOptions& o = s.options;
   s.x_cost = cand_cost;
+  kept_cur_ = 1 - kept_cur_;  // the candidate pass kept its residuals
   // The last permitted step: the loop's next tests end the solve before any of them reads
   // the Jacobians, so linearizing here would only be thrown away (the time test still comes
   // first, as in the loop). A window solve capped at 3 iterations saves 1 of its 7 passes.
@@ -214,6 +221,7 @@ bool Problem::accept_step(LmState& s, double cand_cost, double relative_decrease
   s.x_norm = variable_x_norm();
   if (!linearize(true, &s.x_cost)) {
     restore_values();
+    kept_cur_ = 1 - kept_cur_;
     return s.end(SolverStatus::kNumericalFailure, Termination::kFailure, s.x_cost + s.fixed);
   }
   ++s.summary.linearizations;
@@ -224,6 +232,24 @@ bool Problem::accept_step(LmState& s, double cand_cost, double relative_decrease
   s.radius = std::min(o.max_trust_region_radius,
                       s.radius / std::max(1.0 / 3.0, 1.0 - q * q * q));
   s.decrease_factor = 2.0;
+  return true;
+}
+
+// The values the solve returns, so that solved_residuals_current() can tell whether they moved.
+void Problem::snapshot_solution() {
+  for (int i = 0; i < num_blocks_; ++i) {
+    const Block& b = blocks_[i];
+    if (!b.constant) std::copy(b.x, b.x + b.ambient, solved_x_[i]);
+  }
+  kept_valid_ = true;
+}
+
+bool Problem::solved_residuals_current() const {
+  if (!kept_valid_ || !prepared_) return false;
+  for (int i = 0; i < num_blocks_; ++i) {
+    const Block& b = blocks_[i];
+    if (!b.constant && !std::equal(b.x, b.x + b.ambient, solved_x_[i])) return false;
+  }
   return true;
 }
 

@@ -1,6 +1,7 @@
 #include "core/estimator/problem_builder.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 #include "core/estimator/estimator_stats.hpp"
 #include "core/estimator/landmark_map.hpp"
@@ -27,6 +28,7 @@ ProblemBuilder::ProblemBuilder(const ProblemBuilderOptions& options, Window* win
       pose_cache_(std::make_unique<RelativePoseCache>()),
       visual_(new BearingResidual[kMaxVisualResiduals]),
       chosen_(new int[capacity::kMaxLandmarks]),
+      edge_res_(new EdgeResiduals[capacity::kMaxLandmarks]),
       block_of_landmark_(new int[capacity::kMaxLandmarks]),
       relocation_res_(new BearingResidual[capacity::kMaxLoopFeaturesPerKeyframe]),
       relocation_match_(new int[capacity::kMaxLoopFeaturesPerKeyframe]),
@@ -149,9 +151,12 @@ void ProblemBuilder::add_landmarks(std::uint8_t groups) {
     problem_->add_landmark_block(&l.inv_depth, 1, &lm_id);
     table_.note(lm_id, BlockKind::kLandmark, l.id);
     block_of_landmark_[idx] = lm_id;
+    EdgeResiduals& er = edge_res_[n_selected_];
     ++n_selected_;
     ++n_selected_group_[static_cast<int>(l.group())];
-    add_landmark_edges(idx, lm_id);
+    er.begin = problem_->num_residuals();
+    er.whole = add_landmark_edges(idx, lm_id);
+    er.end = problem_->num_residuals();
   }
 }
 
@@ -168,7 +173,8 @@ int ProblemBuilder::block_id(const EdgeBlock& b, int lm_block) const {
 bool ProblemBuilder::add_landmark_edges(int pool_idx, int lm_block) {
   const Landmark& l = landmarks_->at_pool(pool_idx);
   const solver::RobustLoss huber = solver::RobustLoss::huber(options_.huber_rad);
-  const double w = l.stereo ? options_.weight_3d : options_.weight_2d;
+  const double w = edge_weight(l);
+  bool whole = true;
   for_each_visual_edge(l, [&](const VisualEdge& e) {
     BearingResidual& r = visual_[n_visual_];
     EdgeBlock blocks[kMaxEdgeBlocks];
@@ -177,12 +183,13 @@ bool ProblemBuilder::add_landmark_edges(int pool_idx, int lm_block) {
     for (int i = 0; i < nb; ++i) ids[i] = block_id(blocks[i], lm_block);
     if (problem_->add_residual(&r, huber, ids, nb) != solver::SolverStatus::kOk) {
       ++stats_->drops_residuals;
+      whole = false;
       return true;
     }
     ++n_visual_;
     return true;
   });
-  return true;
+  return whole;
 }
 
 void ProblemBuilder::add_imu_terms() {
@@ -366,9 +373,11 @@ int ProblemBuilder::oldest_frame_blocks(int* ids) const {
 
 int ProblemBuilder::mark_outliers() {
   // A landmark with any observation farther than outlier_rad from its prediction is dropped (it
-  // leaves the map; the front end keeps tracking it and it comes back as a new landmark).
+  // leaves the map; the front end keeps tracking it and it comes back as a new landmark). Right
+  // after the solve its residuals at the solution are known; otherwise they are evaluated.
   pose_cache_->invalidate();  // evaluated outside a solve: the window may have moved since
   refresh_edge_time_offset();
+  const bool solved = problem_->solved_residuals_current();
   int marked = 0;
   for (int i = 0; i < n_selected_; ++i) {
     Landmark& l = landmarks_->at_pool(chosen_[i]);
@@ -376,30 +385,47 @@ int ProblemBuilder::mark_outliers() {
       l.has_depth = false;  // re-triangulated later
       continue;
     }
-    bool bad = false;
-    for_each_visual_edge(l, [&](const VisualEdge& e) {
-      BearingResidual r;
-      EdgeBlock blocks[kMaxEdgeBlocks];
-      const int nb = setup_visual_edge(l, e, 1.0, pose_cache_.get(), &r, blocks, edge_td_);
-      const double* params[kMaxEdgeBlocks];
-      for (int b = 0; b < nb; ++b) {
-        const EdgeBlock& eb = blocks[b];
-        params[b] = eb.kind == EdgeBlock::kPose         ? window_->slot(eb.index).pose
-                    : eb.kind == EdgeBlock::kExtrinsic  ? window_->extrinsics().block(eb.index)
-                    : eb.kind == EdgeBlock::kTimeOffset ? window_->time_offset().block()
-                                                        : &l.inv_depth;
-      }
-      double err = 0.0;
-      bad = !r.error_rad(params, &err) || err > options_.outlier_rad;
-      return !bad;
-    });
-    if (bad) {
+    int verdict = solved && edge_res_[i].whole ? solved_edges_outlier(edge_res_[i], edge_weight(l)) : -1;
+    if (verdict < 0) verdict = evaluated_edges_outlier(l) ? 1 : 0;
+    if (verdict == 1) {
       l.outlier = true;
       ++marked;
     }
   }
   stats_->outlier_landmarks += static_cast<std::uint64_t>(marked);
   return marked;
+}
+
+// 1: an edge's residual at the solution is beyond outlier_rad (the residual is whitened by w);
+// 0: none is; -1: one was not kept by the solver.
+int ProblemBuilder::solved_edges_outlier(const EdgeResiduals& er, double w) const {
+  for (int k = er.begin; k < er.end; ++k) {
+    const double* r = problem_->solved_residual(k);
+    if (r == nullptr) return -1;
+    if (std::sqrt(r[0] * r[0] + r[1] * r[1]) / w > options_.outlier_rad) return 1;
+  }
+  return 0;
+}
+
+bool ProblemBuilder::evaluated_edges_outlier(const Landmark& l) {
+  bool bad = false;
+  for_each_visual_edge(l, [&](const VisualEdge& e) {
+    BearingResidual r;
+    EdgeBlock blocks[kMaxEdgeBlocks];
+    const int nb = setup_visual_edge(l, e, 1.0, pose_cache_.get(), &r, blocks, edge_td_);
+    const double* params[kMaxEdgeBlocks];
+    for (int b = 0; b < nb; ++b) {
+      const EdgeBlock& eb = blocks[b];
+      params[b] = eb.kind == EdgeBlock::kPose         ? window_->slot(eb.index).pose
+                  : eb.kind == EdgeBlock::kExtrinsic  ? window_->extrinsics().block(eb.index)
+                  : eb.kind == EdgeBlock::kTimeOffset ? window_->time_offset().block()
+                                                      : &l.inv_depth;
+    }
+    double err = 0.0;
+    bad = !r.error_rad(params, &err) || err > options_.outlier_rad;
+    return !bad;
+  });
+  return bad;
 }
 
 }  // namespace ums

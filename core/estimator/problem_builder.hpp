@@ -107,7 +107,17 @@ class ProblemBuilder {
   int build(const SolveSpec& spec);
   void add_state_blocks(const SolveSpec& spec);
   void add_landmarks(std::uint8_t groups);
+  // False when an edge did not fit in the problem.
   bool add_landmark_edges(int pool_idx, int lm_block);
+  double edge_weight(const Landmark& l) const { return l.stereo ? options_.weight_3d : options_.weight_2d; }
+  // A chosen landmark's residuals in the problem: ids begin .. end-1, one per visual edge in
+  // for_each_visual_edge's order when whole.
+  struct EdgeResiduals {
+    int begin = 0, end = 0;
+    bool whole = false;
+  };
+  int solved_edges_outlier(const EdgeResiduals& er, double w) const;
+  bool evaluated_edges_outlier(const Landmark& l);
   void add_imu_terms();
   void add_extrinsic_priors();
   bool extrinsics_float(const SolveSpec& spec) const {
@@ -130,6 +140,7 @@ class ProblemBuilder {
   std::unique_ptr<BearingResidual[]> visual_;
   int n_visual_ = 0;
   std::unique_ptr<int[]> chosen_;              // pool indices of the landmarks in the problem
+  std::unique_ptr<EdgeResiduals[]> edge_res_;  // by position in chosen_
   std::unique_ptr<int[]> block_of_landmark_;   // by pool index
   int n_selected_ = 0;
   int n_selected_group_[3] = {0, 0, 0};

@@ -720,3 +720,118 @@ TEST_CASE("A marginalization refused as too large leaves the problem solvable as
 
 }  // namespace
 }  // namespace ums::solver
+
+namespace ums::solver {
+namespace {
+
+// Residual k of the window evaluated afresh at its current values (no Jacobians).
+std::vector<double> fresh_residual(VioWindow& w, int k) {
+  const bench::ResidualDesc& d = w.residuals[static_cast<std::size_t>(k)];
+  const double* params[4] = {};
+  for (int b = 0; b < d.num_blocks; ++b) params[b] = w.data(d.blocks[b]);
+  std::vector<double> r(static_cast<std::size_t>(d.fn->num_residuals()));
+  JacobianView none[4];
+  REQUIRE(d.fn->evaluate(params, r.data(), none));
+  return r;
+}
+
+}  // namespace
+
+TEST_CASE("A solve keeps its residuals at the values it returns, bit for bit, until they move",
+          "[solver][problem]") {
+  auto w = bench::make_vio_window(small_window(false, true));
+  auto problem = std::make_unique<Problem>();
+  int checked = 0;
+  bool saw_capped = false, saw_tolerance = false;
+  // Iteration caps that end on an accepted step or on a tolerance (the last candidate discarded).
+  for (double radius : {1e4, 1e-3}) {
+    for (int iterations : {1, 2, 3, 5, 50}) {
+      w->reset();
+      REQUIRE(bench::add_to_problem(*w, *problem) == SolverStatus::kOk);
+      SolverOptions opt;
+      opt.max_iterations = iterations;
+      opt.initial_trust_region_radius = radius;
+      SolverSummary sum;
+      REQUIRE(usable(problem->solve(opt, &sum)));
+      saw_capped |= sum.termination == Termination::kMaxIterations;
+      saw_tolerance |= sum.termination == Termination::kFunctionTolerance ||
+                       sum.termination == Termination::kParameterTolerance;
+      INFO("radius " << radius << " iterations " << iterations << ": " << sum.successful_steps << " of "
+                     << sum.iterations << " steps accepted");
+      REQUIRE(problem->solved_residuals_current());
+      for (int k = 0; k < problem->num_residuals(); ++k) {
+        const double* kept = problem->solved_residual(k);
+        REQUIRE(kept != nullptr);
+        const std::vector<double> r = fresh_residual(*w, k);
+        for (std::size_t i = 0; i < r.size(); ++i) CHECK(kept[i] == r[i]);
+        ++checked;
+      }
+    }
+  }
+  CHECK(checked > 1000);
+  CHECK(saw_capped);
+  CHECK(saw_tolerance);
+  // A value moved after the solve: the kept residuals no longer describe the state.
+  w->inv_depth[3] *= 1.01;
+  CHECK_FALSE(problem->solved_residuals_current());
+  w->inv_depth[3] /= 1.01;
+  // Set-up again: nothing is known until the next solve.
+  REQUIRE(bench::add_to_problem(*w, *problem) == SolverStatus::kOk);
+  CHECK_FALSE(problem->solved_residuals_current());
+}
+
+// r = 10 (x^3 - 1): from x = 0.05, where the slope is small, the undamped step overshoots far.
+class CubeResidual final : public ResidualFunction {
+ public:
+  int num_residuals() const override { return 1; }
+  bool evaluate(const double* const* x, double* r, const JacobianView* jac) const override {
+    r[0] = 10.0 * (x[0][0] * x[0][0] * x[0][0] - 1.0);
+    if (jac[0].wanted()) jac[0].data[0] = 30.0 * x[0][0] * x[0][0];
+    return true;
+  }
+};
+
+TEST_CASE("After rejected steps the kept residual is the returned iterate's", "[solver][problem]") {
+  auto problem = std::make_unique<Problem>();
+  const CubeResidual f;
+  for (int iterations : {1, 3, 6, 10, 14, 20}) {
+    problem->clear();
+    double x = 0.05;
+    BlockId id = 0;
+    REQUIRE(problem->add_euclidean_block(&x, 1, &id) == SolverStatus::kOk);
+    REQUIRE(problem->add_residual(&f, RobustLoss::trivial(), {id}) == SolverStatus::kOk);
+    SolverOptions opt;
+    opt.max_iterations = iterations;
+    opt.initial_trust_region_radius = 1e16;
+    SolverSummary sum;
+    REQUIRE(usable(problem->solve(opt, &sum)));
+    INFO(iterations << " iterations: " << sum.successful_steps << " accepted, x = " << x);
+    if (iterations == 1) CHECK(sum.successful_steps == 0);  // the first step overshoots
+    REQUIRE(problem->solved_residuals_current());
+    CHECK(problem->solved_residual(0)[0] == 10.0 * (x * x * x - 1.0));
+  }
+}
+
+TEST_CASE("A solve that fails keeps no residuals; one over constant blocks is not kept", "[solver][problem]") {
+  auto problem = std::make_unique<Problem>();
+  PointResidual m(1.0, 2.0);
+  double x[2] = {0.0, 0.0}, y[2] = {0.0, 0.0};
+  BlockId ix = 0, iy = 0;
+  REQUIRE(problem->add_euclidean_block(x, 2, &ix) == SolverStatus::kOk);
+  REQUIRE(problem->add_euclidean_block(y, 2, &iy) == SolverStatus::kOk);
+  REQUIRE(problem->set_constant(iy, true) == SolverStatus::kOk);
+  REQUIRE(problem->add_residual(&m, RobustLoss::trivial(), {ix}) == SolverStatus::kOk);
+  REQUIRE(problem->add_residual(&m, RobustLoss::trivial(), {iy}) == SolverStatus::kOk);
+  SolverSummary sum;
+  REQUIRE(usable(problem->solve(SolverOptions{}, &sum)));
+  REQUIRE(problem->solved_residuals_current());
+  REQUIRE(problem->solved_residual(0) != nullptr);
+  CHECK(std::abs(problem->solved_residual(0)[0]) < 1e-6);  // x reached (1, 2) (0.1 um)
+  CHECK(problem->solved_residual(1) == nullptr);            // every block constant
+  // A NaN start: the solve refuses, and nothing is kept.
+  x[0] = std::numeric_limits<double>::quiet_NaN();
+  CHECK(problem->solve(SolverOptions{}, &sum) == SolverStatus::kInvalidInput);
+  CHECK_FALSE(problem->solved_residuals_current());
+}
+
+}  // namespace ums::solver
