@@ -31,12 +31,21 @@ SolverStatus check_information(const PriorBlock* blocks, int num_blocks,
   return SolverStatus::kOk;
 }
 
+// Rows and columns a < b of a symmetric matrix swapped where only its upper triangle is kept
+// (the factor's rows above a, in the same triangle, have their columns swapped too).
+void swap_symmetric_upper(MatrixMap W, int dim, int a, int b) {
+  std::swap(W(a, a), W(b, b));
+  for (int i = 0; i < a; ++i) std::swap(W(i, a), W(i, b));
+  for (int i = a + 1; i < b; ++i) std::swap(W(a, i), W(i, b));
+  for (int i = b + 1; i < dim; ++i) std::swap(W(a, i), W(b, i));
+}
+
 // Pivoted outer-product Cholesky in place: P^T W P = U^T U (U in W's upper rows, P in perm),
 // stopping at the numerical rank (a pivot below 1e-12 of the unit diagonal carries no
-// information: gauge directions, unobserved blocks). Returns the rank.
+// information: gauge directions, unobserved blocks). Only W's upper triangle is read or written.
+// Returns the rank.
 int pivoted_cholesky(MatrixMap W, int dim, int* perm) {
   for (int i = 0; i < dim; ++i) perm[i] = i;
-  DenseVector row(dim);
   int rank = 0;
   for (int k = 0; k < dim; ++k) {
     int p = k;
@@ -44,16 +53,17 @@ int pivoted_cholesky(MatrixMap W, int dim, int* perm) {
       if (W(i, i) > W(p, p)) p = i;
     if (!(W(p, p) > 1e-12)) break;
     if (p != k) {
-      W.row(k).swap(W.row(p));
-      W.col(k).swap(W.col(p));
+      swap_symmetric_upper(W, dim, k, p);
       std::swap(perm[k], perm[p]);
     }
     const double ukk = std::sqrt(W(k, k));
     W(k, k) = ukk;
-    const int m = dim - k - 1;
     for (int i = k + 1; i < dim; ++i) W(k, i) /= ukk;
-    row.head(m) = W.row(k).tail(m).transpose();
-    W.bottomRightCorner(m, m).noalias() -= row.head(m) * row.head(m).transpose();
+    // The trailing block's upper triangle minus the outer product of row k's tail.
+    for (int j = k + 1; j < dim; ++j) {
+      const double wkj = W(k, j);
+      for (int i = k + 1; i <= j; ++i) W(i, j) -= W(k, i) * wkj;
+    }
     rank = k + 1;
   }
   return rank;
@@ -103,10 +113,15 @@ SolverStatus MarginalPrior::set_from_information(const PriorBlock* blocks, int n
   J_.resize(dim, dim);
   MatrixMap J = J_.m();
   unscale_factor(W, sqrt_d, perm, rank, b, J, r0_);
-  // H0 = J^T J, exactly the information the prior applies.
+  // H0 = J^T J, exactly the information the prior applies. Column perm[k] of J is zero below row
+  // k (J = U P^T D^1/2, U upper triangular), so a product of two columns ends at the row of the
+  // earlier one: the terms left out are exact zeros.
+  int pos[capacity::kMaxReducedDim];
+  for (int k = 0; k < dim; ++k) pos[perm[k]] = k;
   for (int j = 0; j < dim; ++j)
     for (int i = 0; i <= j; ++i) {
-      W(i, j) = J.col(i).head(rank).dot(J.col(j).head(rank));
+      const int rows = std::min(std::min(pos[i], pos[j]) + 1, rank);
+      W(i, j) = J.col(i).head(rows).dot(J.col(j).head(rows));
       W(j, i) = W(i, j);
     }
 
