@@ -23,6 +23,7 @@ void BearingResidual::set(Kind kind, bool same_camera, const Eigen::Vector3d& b_
   const Eigen::Vector3d t1 = (a - b_target_ * b_target_.dot(a)).normalized();
   tangent_.col(0) = t1;
   tangent_.col(1) = b_target_.cross(t1);
+  count_blocks();
 }
 
 void BearingResidual::bind(RelativePoseCache* cache, int host_slot, int host_cam, int target_slot, int target_cam) {
@@ -40,12 +41,12 @@ void BearingResidual::set_time_offset(const Eigen::Vector3d& v_host, const Eigen
   v_target_ = v_target;
   td_applied_host_s_ = td_applied_host_s;
   td_applied_target_s_ = td_applied_target_s;
+  count_blocks();
 }
 
-int BearingResidual::num_blocks() const {
+void BearingResidual::count_blocks() {
   const int td = static_cast<int>(has_td_);
-  if (kind_ == Kind::kSameFrame) return 3 + td;
-  return (same_camera_ ? 4 : 5) + td;
+  num_blocks_ = static_cast<std::int8_t>((kind_ == Kind::kSameFrame ? 3 : (same_camera_ ? 4 : 5)) + td);
 }
 
 // Inline (as project() below): small steps of every evaluation, whose call overhead showed in the

@@ -52,7 +52,7 @@ class BearingResidual final : public solver::ResidualFunction {
                        double td_applied_target_s);
 
   int num_residuals() const override { return 2; }
-  int num_blocks() const;
+  int num_blocks() const { return num_blocks_; }
   bool evaluate(const double* const* parameters, double* residuals,
                 const solver::JacobianView* jacobians) const override;
 
@@ -64,7 +64,8 @@ class BearingResidual final : public solver::ResidualFunction {
                        const solver::JacobianView* jacobians) const;
   bool project(const Eigen::Vector3d& P_ct, const Eigen::Vector3d& b_target, double* residuals,
                Eigen::Matrix<double, 2, 3>* D) const;
-  int rho_block() const { return num_blocks() - 1 - static_cast<int>(has_td_); }
+  int rho_block() const { return num_blocks_ - 1 - static_cast<int>(has_td_); }
+  void count_blocks();  // num_blocks_ from the kind, the cameras and the td block
   // The measured bearings moved by the offset at these parameters (b_host_, b_target_ without one).
   void shifted_bearings(const double* const* parameters, Eigen::Vector3d* b_host, Eigen::Vector3d* b_target) const;
   // d r / d td from d r / d P_ct and the map of host-camera vectors into the target camera.
@@ -80,6 +81,7 @@ class BearingResidual final : public solver::ResidualFunction {
   Eigen::Matrix<double, 3, 2> tangent_ = Eigen::Matrix<double, 3, 2>::Zero();
   double weight_ = 1.0;
   bool has_td_ = false;
+  std::int8_t num_blocks_ = 4;  // evaluated per call: set by set() and set_time_offset()
   double td_applied_host_s_ = 0.0, td_applied_target_s_ = 0.0;
   Eigen::Vector3d v_host_ = Eigen::Vector3d::Zero();    // 1/s
   Eigen::Vector3d v_target_ = Eigen::Vector3d::Zero();  // 1/s
