@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/frontend/float_lanes.hpp"
 #include "core/frontend/klt_tracker.hpp"
 
 #if defined(__ARM_NEON)
@@ -80,15 +81,8 @@ bool has_zero_byte(const std::uint8_t* p) {
 // the scalar formula's operations in its order (integer Sobel, exact float products and sums,
 // then the rounded eigenvalue; no contraction), so the vector and scalar pixels, and every
 // machine, give the same bits.
-typedef float F4 __attribute__((vector_size(16)));
+using F4 = FloatLanes;
 typedef short S8 __attribute__((vector_size(16)));
-
-inline F4 load4(const float* p) {
-  F4 v;
-  std::memcpy(&v, p, sizeof v);
-  return v;
-}
-inline void store4(float* p, F4 v) { std::memcpy(p, &v, sizeof v); }
 // 8 pixels widened to 16-bit lanes, and a half of 8 such lanes as floats (exact). The widenings
 // are the targets' own instructions: GCC's generic conversions build them lane by lane.
 inline S8 load8_u8(const std::uint8_t* p) {
@@ -141,9 +135,9 @@ void sobel_products(const std::uint8_t* __restrict r0, const std::uint8_t* __res
     const F4 fx[2] = {half_to_float<0>(dx), half_to_float<1>(dx)};
     const F4 fy[2] = {half_to_float<0>(dy), half_to_float<1>(dy)};
     for (int h = 0; h < 2; ++h) {
-      store4(xx + x + 4 * h, fx[h] * fx[h]);
-      store4(xy + x + 4 * h, fx[h] * fy[h]);
-      store4(yy + x + 4 * h, fy[h] * fy[h]);
+      store_lanes(xx + x + 4 * h, fx[h] * fx[h]);
+      store_lanes(xy + x + 4 * h, fx[h] * fy[h]);
+      store_lanes(yy + x + 4 * h, fy[h] * fy[h]);
     }
   }
   for (; x < x1; ++x) {
@@ -160,7 +154,7 @@ void sobel_products(const std::uint8_t* __restrict r0, const std::uint8_t* __res
 void sum3_rows(const float* __restrict a, const float* __restrict b, const float* __restrict c, float* __restrict out,
                int x0, int x1) {
   int x = x0;
-  for (; x + 4 <= x1; x += 4) store4(out + x, load4(a + x) + load4(b + x) + load4(c + x));
+  for (; x + 4 <= x1; x += 4) store_lanes(out + x, load_lanes(a + x) + load_lanes(b + x) + load_lanes(c + x));
   for (; x < x1; ++x) out[x] = a[x] + b[x] + c[x];
 }
 
@@ -170,10 +164,10 @@ void shi_tomasi_row(const float* __restrict va, const float* __restrict vb, cons
                     int x0, int x1, float* __restrict out) {
   int x = x0;
   for (; x + 4 <= x1; x += 4) {
-    const F4 sa = (load4(va + x - 1) + load4(va + x) + load4(va + x + 1)) * norm;
-    const F4 sb = (load4(vb + x - 1) + load4(vb + x) + load4(vb + x + 1)) * norm;
-    const F4 sc = (load4(vc + x - 1) + load4(vc + x) + load4(vc + x + 1)) * norm;
-    store4(out + x, 0.5f * ((sa + sc) - sqrt4((sa - sc) * (sa - sc) + 4.0f * sb * sb)));
+    const F4 sa = (load_lanes(va + x - 1) + load_lanes(va + x) + load_lanes(va + x + 1)) * norm;
+    const F4 sb = (load_lanes(vb + x - 1) + load_lanes(vb + x) + load_lanes(vb + x + 1)) * norm;
+    const F4 sc = (load_lanes(vc + x - 1) + load_lanes(vc + x) + load_lanes(vc + x + 1)) * norm;
+    store_lanes(out + x, 0.5f * ((sa + sc) - sqrt4((sa - sc) * (sa - sc) + 4.0f * sb * sb)));
   }
   for (; x < x1; ++x) {
     const float sa = (va[x - 1] + va[x] + va[x + 1]) * norm;
@@ -191,7 +185,7 @@ void masked_max(const float* __restrict out, const std::uint8_t* __restrict m, i
     std::uint32_t four = 1;
     if (x + 4 <= x1) std::memcpy(&four, m + x, sizeof four);
     if (four == 0) {
-      const F4 v = load4(out + x);
+      const F4 v = load_lanes(out + x);
       mx = v > mx ? v : mx;
       x += 4;
     } else {

@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/frontend/float_lanes.hpp"
+
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #elif defined(__ARM_NEON)
@@ -19,16 +21,8 @@ namespace {
 // Window sums in 4 lanes (one SSE or NEON register) with a fixed order: element k always lands in
 // lane k % 4 and the lanes are added 0..3, then the tail. Every machine then gives the same float
 // (Eigen's reductions split differently per architecture; issue 8's cross-architecture check).
-typedef float Lanes __attribute__((vector_size(16)));
-constexpr int kLanes = 4;
-
-inline Lanes load(const float* p) {
-  Lanes v;
-  std::memcpy(&v, p, sizeof v);
-  return v;
-}
-
-inline void store(float* p, Lanes v) { std::memcpy(p, &v, sizeof v); }
+using Lanes = FloatLanes;
+constexpr int kLanes = kFloatLanes;
 
 inline float lane_sum(Lanes v) {
   float s = 0.0f;
@@ -45,7 +39,7 @@ GradientSums gradient_sums(const float* gx, const float* gy, int nn) {
   Lanes sxx{}, sxy{}, syy{}, sx{}, sy{};
   int k = 0;
   for (; k + kLanes <= nn; k += kLanes) {
-    const Lanes a = load(gx + k), b = load(gy + k);
+    const Lanes a = load_lanes(gx + k), b = load_lanes(gy + k);
     sxx += a * a;
     sxy += a * b;
     syy += b * b;
@@ -72,10 +66,10 @@ ErrorSums error_sums(const float* t, const float* w, const float* gx, const floa
   Lanes sd{}, sdx{}, sdy{};
   int k = 0;
   for (; k + kLanes <= nn; k += kLanes) {
-    const Lanes d = load(t + k) - load(w + k);
+    const Lanes d = load_lanes(t + k) - load_lanes(w + k);
     sd += d;
-    sdx += d * load(gx + k);
-    sdy += d * load(gy + k);
+    sdx += d * load_lanes(gx + k);
+    sdy += d * load_lanes(gy + k);
   }
   ErrorSums s{lane_sum(sd), lane_sum(sdx), lane_sum(sdy)};
   for (; k < nn; ++k) {
@@ -91,7 +85,7 @@ ErrorSums error_sums(const float* t, const float* w, const float* gx, const floa
 float mean_abs_error(const float* t, const float* w, int nn) {
   Lanes sd{};
   int k = 0;
-  for (; k + kLanes <= nn; k += kLanes) sd += load(t + k) - load(w + k);
+  for (; k + kLanes <= nn; k += kLanes) sd += load_lanes(t + k) - load_lanes(w + k);
   float sum_d = lane_sum(sd);
   for (int j = k; j < nn; ++j) sum_d += t[j] - w[j];
   const float inv_area = 1.0f / static_cast<float>(nn);
@@ -99,7 +93,7 @@ float mean_abs_error(const float* t, const float* w, int nn) {
   const Lanes mean{mean_d, mean_d, mean_d, mean_d};
   Lanes sa{};
   for (k = 0; k + kLanes <= nn; k += kLanes) {
-    const Lanes e = load(t + k) - load(w + k) - mean;
+    const Lanes e = load_lanes(t + k) - load_lanes(w + k) - mean;
     sa += e < 0.0f ? -e : e;
   }
   float sum_abs = lane_sum(sa);
@@ -240,9 +234,9 @@ void template_and_gradients(const float* ext, int n, float* tmpl, float* gx, flo
     const float* c = ext + (j + 1) * ne + 1;
     const int k0 = j * n;
     for (int i = 0; i < cols; i += kLanes) {
-      store(tmpl + k0 + i, load(c + i));
-      store(gx + k0 + i, half * (load(c + i + 1) - load(c + i - 1)));
-      store(gy + k0 + i, half * (load(c + i + ne) - load(c + i - ne)));
+      store_lanes(tmpl + k0 + i, load_lanes(c + i));
+      store_lanes(gx + k0 + i, half * (load_lanes(c + i + 1) - load_lanes(c + i - 1)));
+      store_lanes(gy + k0 + i, half * (load_lanes(c + i + ne) - load_lanes(c + i - ne)));
     }
   }
 }
