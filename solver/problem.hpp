@@ -94,7 +94,8 @@ class Problem {
   // A check of residuals after a solve (outliers) need not evaluate them again: the pass that
   // visited the values solve() returned kept them. True when they are known: the last solve was
   // usable and neither the problem nor a variable block's value has changed since (the values are
-  // compared, so this costs one pass over the blocks).
+  // compared, so this costs one pass over the blocks). Constant blocks and the residual objects'
+  // own state are not compared: the caller must not have changed them since the solve.
   bool solved_residuals_current() const;
   // Residual k's values (before the robust loss, as its function wrote them) at the values solve()
   // returned; valid while solved_residuals_current(). nullptr when k was not kept: every block of

@@ -397,12 +397,17 @@ int ProblemBuilder::mark_outliers() {
 }
 
 // 1: an edge's residual at the solution is beyond outlier_rad (the residual is whitened by w);
-// 0: none is; -1: one was not kept by the solver.
+// 0: none is; -1: undecided here, the edges must be evaluated: a residual was not kept, or an
+// error lies within rounding of the threshold (|r| / w need not round as the unwhitened error
+// does, and the verdict must not depend on it).
 int ProblemBuilder::solved_edges_outlier(const EdgeResiduals& er, double w) const {
+  const double band = 1e-9 * options_.outlier_rad;
   for (int k = er.begin; k < er.end; ++k) {
     const double* r = problem_->solved_residual(k);
     if (r == nullptr) return -1;
-    if (std::sqrt(r[0] * r[0] + r[1] * r[1]) / w > options_.outlier_rad) return 1;
+    const double err = std::sqrt(r[0] * r[0] + r[1] * r[1]) / w;
+    if (std::abs(err - options_.outlier_rad) <= band) return -1;
+    if (err > options_.outlier_rad) return 1;
   }
   return 0;
 }
