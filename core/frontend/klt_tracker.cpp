@@ -311,11 +311,11 @@ bool prepare_template(const ImageView& I, const Eigen::Vector2f& p, const KltOpt
   return min_eig >= options.min_eigen * kScale2 && min_eig > 0.0f;
 }
 
-// Level `level`'s template of p_prev in prev: read from the cache slot when it holds it, else
-// sampled, into the slot when there is one. False when the window is untextured.
-bool level_template(const ImagePyramid& prev, int level, const Eigen::Vector2f& p_prev, const KltOptions& options,
-                    KltTemplateCache* cache, int slot, KltWorkspace* ws, TemplateRef* t) {
-  const Eigen::Vector2f p = p_prev * (1.0f / static_cast<float>(1 << level));
+// Level `level`'s template of p_prev in prev (p: the same point in the level's pixels): read
+// from the cache slot when it holds it, else sampled, into the slot when there is one. False
+// when the window is untextured.
+bool level_template(const ImagePyramid& prev, int level, const Eigen::Vector2f& p_prev, const Eigen::Vector2f& p,
+                    const KltOptions& options, KltTemplateCache* cache, int slot, KltWorkspace* ws, TemplateRef* t) {
   bool filled = false;
   float* blk = cache != nullptr ? cache->block(slot, prev, p_prev, level, &filled) : nullptr;
   if (blk == nullptr) {
@@ -324,14 +324,15 @@ bool level_template(const ImagePyramid& prev, int level, const Eigen::Vector2f& 
   }
   const int stride = template_stride(options.window_px);
   *t = TemplateRef{blk, blk + stride, blk + 2 * stride, GradientSums{}};
-  float* sums = blk + 3 * stride;
+  float* sums = blk + 3 * stride;  // the sums, then the usable flag
   if (filled) {
     t->gs = GradientSums{sums[0], sums[1], sums[2], sums[3], sums[4]};
     return sums[5] != 0.0f;
   }
   const bool usable = prepare_template(prev.level(level), p, options, ws->tmpl_ext, t);
-  const float kept[kSumFloats] = {t->gs.gxx, t->gs.gxy, t->gs.gyy, t->gs.gx, t->gs.gy, usable ? 1.0f : 0.0f, 0.0f, 0.0f};
-  std::copy(kept, kept + kSumFloats, sums);
+  const GradientSums& g = t->gs;
+  sums[0] = g.gxx, sums[1] = g.gxy, sums[2] = g.gyy, sums[3] = g.gx, sums[4] = g.gy;
+  sums[5] = usable ? 1.0f : 0.0f;
   cache->mark_filled(slot, level);
   return usable;
 }
@@ -394,7 +395,7 @@ Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels,
     const Eigen::Vector2f p = p_prev * (1.0f / static_cast<float>(1 << level));
     // A coarse level that cannot be used (blurred flat, or mostly outside a small image) is
     // skipped: the finer levels still refine the carried displacement. Level 0 must succeed.
-    if (!level_template(prev, level, p_prev, options, cache, slot, &ws, &t)) {
+    if (!level_template(prev, level, p_prev, p, options, cache, slot, &ws, &t)) {
       if (level == 0) return Status::kNotConverged;
       g *= 2.0f;
       continue;
