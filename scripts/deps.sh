@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Installs the Debian packages the build, the tests and the aarch64 cross build need.
-# Idempotent and quiet when everything is there. Usage: scripts/deps.sh [host|aarch64|armhf|fuzz|all]
-# (fuzz: the host packages plus clang and its libFuzzer/sanitizer runtimes, for scripts/fuzz.sh)
+# Idempotent and quiet when everything is there. Usage: scripts/deps.sh [host|aarch64|armhf|fuzz|cycles|all]
+# (fuzz: the host packages plus clang and its libFuzzer/sanitizer runtimes, for scripts/fuzz.sh;
+# cycles: the aarch64 packages plus llvm-mc and llvm-mca, for scripts/instructions_aarch64.sh --cycles)
 set -euo pipefail
 
 want="${1:-all}"
@@ -14,13 +15,18 @@ arm64_pkgs=(g++-aarch64-linux-gnu qemu-user libopencv-core-dev:arm64 libopencv-i
 armhf_pkgs=(g++-arm-linux-gnueabihf qemu-user)
 # -fsanitize=fuzzer,address,undefined: Debian's clang and the runtime libraries matching its version.
 fuzz_pkgs=(clang libclang-rt-14-dev)
+# llvm-mc (disassembler) and llvm-mca (Cortex-A72 pipeline model): scripts/cycle_model.py.
+cycles_pkgs=(llvm-14)
 # The whole product on armhf needs OpenCV and libpng for :armhf. Best effort: on 2026-11-22 a
 # mirror mid-sync made them uninstallable; then scripts/test.sh builds and tests the solver only.
 armhf_lib_pkgs=(libopencv-core-dev:armhf libopencv-imgproc-dev:armhf libpng-dev:armhf zlib1g-dev:armhf)
 
 pkgs=("${host_pkgs[@]}" "${bench_pkgs[@]}")
-if [[ "$want" == "aarch64" || "$want" == "all" ]]; then
+if [[ "$want" == "aarch64" || "$want" == "cycles" || "$want" == "all" ]]; then
   pkgs+=("${arm64_pkgs[@]}")
+fi
+if [[ "$want" == "cycles" ]]; then
+  pkgs+=("${cycles_pkgs[@]}")
 fi
 if [[ "$want" == "armhf" || "$want" == "all" ]]; then
   pkgs+=("${armhf_pkgs[@]}")

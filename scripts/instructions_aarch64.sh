@@ -11,26 +11,35 @@
 # Replays run with --deterministic: the solver's second round is bounded by iterations, not by the
 # wall clock, which qemu and valgrind slow down 20-50x (without it the count depends on the host).
 #
-# Usage: scripts/instructions_aarch64.sh [--x86] [--function=LABEL=PREFIX ...] [dataset...]
+# qemu runs the binary as a Cortex-A72 (-cpu cortex-a72), so the C library picks the routines
+# it would pick on the board (with qemu's default CPU it takes SVE and LSE variants).
+#
+# Usage: scripts/instructions_aarch64.sh [--x86] [--cycles] [--function=LABEL=PREFIX ...] [dataset...]
 #   default datasets (rendered by the host build, scripts/demo.sh builds it): the V1_01 profile
 #   from 20 s for 3 s, seed 1, at 752x480 (scripts/instructions.sh's sequence) and with the D455
 #   camera at 848x480, and the real micro sequence ../shared/data/euroc/V1_01_easy_micro.
 #   --x86: also count each run with callgrind on the host build (scripts/instructions.sh), side by side.
+#   --cycles: also estimate the pipeline's cycles per frame on a Cortex-A72 model: the blocks it ran
+#     through llvm-mca, the loads through a simulated Raspberry Pi 4 cache (32 KiB 2-way L1D, 1 MiB
+#     16-way L2), printed under the run's line (scripts/cycle_model.py; about 3x slower).
 #   --function=LABEL=PREFIX (up to 5): also count, on aarch64, the instructions while any function
 #     whose demangled name starts with PREFIX is active (callees included), printed per frame
 #     under the run's line; e.g. --function=klt=ums::klt_track --function='jtj=ums::solver::Problem::accumulate_two_row'.
-# Installs what it needs: the cross compiler and qemu-user (scripts/deps.sh aarch64), and qemu's
+# Installs what it needs: the cross compiler and qemu-user (scripts/deps.sh aarch64; with --cycles
+# also llvm-mc and llvm-mca, scripts/deps.sh cycles), and qemu's
 # plugin header, taken from Debian's qemu source package (a deb-src entry is added when missing).
 set -euo pipefail
 
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 x86=0
+cycles=0
 datasets=()
 fn_labels=()
 fn_prefixes=()
 for a in "$@"; do
   case "$a" in
     --x86) x86=1 ;;
+    --cycles) cycles=1 ;;
     --function=*=*)
       spec="${a#--function=}"
       fn_labels+=("${spec%%=*}")
@@ -38,8 +47,8 @@ for a in "$@"; do
       [[ ${#fn_labels[@]} -le 5 ]] || { echo "instructions_aarch64: at most 5 --function options (the plugin follows 8 labels)" >&2; exit 64; }
       [[ "${fn_labels[-1]}" =~ ^[A-Za-z0-9_]+$ ]] || { echo "instructions_aarch64: --function label '${fn_labels[-1]}' must be letters, digits or _" >&2; exit 64; }
       ;;
-    -h|--help) sed -n '2,22p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
-    -*) echo "instructions_aarch64: unknown option '$a' (--x86, --function=LABEL=PREFIX)" >&2; exit 64 ;;
+    -h|--help) sed -n '2,30p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -*) echo "instructions_aarch64: unknown option '$a' (--x86, --cycles, --function=LABEL=PREFIX)" >&2; exit 64 ;;
     *) [[ -d "$a/mav0" ]] || { echo "instructions_aarch64: $a: not a EuRoC dataset (no mav0/)" >&2; exit 64; }
        datasets+=("$(cd "$a" && pwd)") ;;
   esac
@@ -90,26 +99,39 @@ build_plugin() {
   echo "$so"
 }
 
+# The Raspberry Pi 4's Cortex-A72 caches: 32 KiB 2-way L1D per core, 1 MiB 16-way L2 (shared).
+cache_args="cache=32768:2:1048576:16"
 self_test() {  # the plugin on a program whose counts are known: nested calls, a tail call
   cat >"$work/selftest.c" <<'SRC'
 #define NOPS(n) __asm__ volatile(".rept " #n "\n nop\n .endr")
 __attribute__((noinline)) void leaf(void) { NOPS(500); }
 __attribute__((noinline)) void middle(void) { NOPS(200); leaf(); } /* ends in a tail call at -O2 */
 __attribute__((noinline)) void outer(void) { NOPS(1000); middle(); NOPS(100); }
-int main(void) { for (int i = 0; i < 10; ++i) outer(); leaf(); return 0; }
+/* The cache model's check: 4 MiB read twice (every 64-byte line misses L1 and the 1 MiB L2 both
+   times), then 16 KiB read 8 times (misses the first time only: the sweep evicted it). */
+static volatile long big[1 << 19], small[1 << 11];
+__attribute__((noinline)) long sweep(void) {
+  long s = 0;
+  for (int p = 0; p < 2; ++p) for (int i = 0; i < (1 << 19); ++i) s += big[i];
+  for (int p = 0; p < 8; ++p) for (int i = 0; i < (1 << 11); ++i) s += small[i];
+  return s;
+}
+int main(void) { for (int i = 0; i < 10; ++i) outer(); leaf(); return (int)sweep(); }
 SRC
   aarch64-linux-gnu-gcc -O2 -o "$work/selftest" "$work/selftest.c"
   local nm_out="$work/selftest.nm" args
   aarch64-linux-gnu-nm -S --defined-only "$work/selftest" >"$nm_out"
   args=$(awk '$4 == "main" {printf "main=0x%s", $1}' "$nm_out")
-  args+=$(awk '$4 ~ /^(leaf|middle|outer)$/ {printf ",fn=%s:0x%s:0x%s", $4, $1, $2}' "$nm_out")
-  qemu-aarch64 -L / -plugin "$1,out=$work/selftest.counts,$args" "$work/selftest"
+  args+=$(awk '$4 ~ /^(leaf|middle|outer|sweep)$/ {printf ",fn=%s:0x%s:0x%s", $4, $1, $2}' "$nm_out")
+  qemu-aarch64 -cpu cortex-a72 -L / -plugin "$1,out=$work/selftest.counts,$args,$cache_args,block_stage=sweep" "$work/selftest"
   # Per call: outer 1000 + 200 + 500 + 100 nops, middle 700, leaf 500, plus a few instructions of
   # call, prologue and return each; leaf is entered 10 times by middle's tail call and once by main.
   awk '$1 == "stage" { n[$2] = $3 } $1 == "entries" { e[$2] = $3 } $1 == "returns" { r[$2] = $3 }
+       $1 == "l1_misses" { l1[$2] = $3 } $1 == "l2_misses" { l2[$2] = $3 }
        END { ok = n["outer"] >= 18000 && n["outer"] <= 18300 && e["outer"] == 10 && r["outer"] == 10 &&
                   n["middle"] >= 7000 && n["middle"] <= 7100 && e["middle"] == 10 && r["middle"] == 10 &&
-                  n["leaf"] >= 5500 && n["leaf"] <= 5560 && e["leaf"] == 11 && r["leaf"] == 11
+                  n["leaf"] >= 5500 && n["leaf"] <= 5560 && e["leaf"] == 11 && r["leaf"] == 11 &&
+                  l1["load"] >= 131328 && l1["load"] <= 131828 && l2["load"] >= 131328 && l2["load"] <= 131828
              exit ok ? 0 : 1 }' "$work/selftest.counts" \
     || { echo "instructions_aarch64: the plugin's self-test failed:" >&2; cat "$work/selftest.counts" >&2; exit 1; }
 }
@@ -145,7 +167,9 @@ symbol_args() {  # binary -> the plugin's main= and fn= arguments, from nm (C++ 
 count_aarch64() {  # dataset tag -> "frames frontend backend pipeline process" (M per frame)
   local ds="$1" tag="$2" args
   args=$(symbol_args "$arm_umsvins")
-  qemu-aarch64 -L / -plugin "$plugin,out=$work/$tag.counts,$args" "$arm_umsvins" replay "$ds" \
+  local model_args=""
+  [[ $cycles -eq 1 ]] && model_args=",blocks=$work/$tag.blocks,block_stage=pipeline,$cache_args"
+  qemu-aarch64 -cpu cortex-a72 -L / -plugin "$plugin,out=$work/$tag.counts,$args$model_args" "$arm_umsvins" replay "$ds" \
     --out "$work/$tag.arm" --quiet --deterministic >/dev/null
   local c="$work/$tag.counts"
   field() { awk -v k="$1" -v l="$2" '$1 == k && $2 == l {print $3}' "$c"; }
@@ -167,6 +191,10 @@ count_aarch64() {  # dataset tag -> "frames frontend backend pipeline process" (
   done
   local frames
   frames=$(grep -o '"frames": [0-9]*' "$work/$tag.arm/stats.json" | awk '{print $2}')
+  if [[ $cycles -eq 1 ]]; then
+    python3 "$root/scripts/cycle_model.py" "$work/$tag.blocks" "$c" --frames "$frames" --nm "$work/nm.txt" \
+      >"$work/$tag.model"
+  fi
   local extra=""
   for label in "${fn_labels[@]}"; do extra+=" $(field stage "$label")"; done
   awk -v f="$frames" -v fe="$(field stage frontend)" -v be="$(field stage backend)" -v pipe="$(field stage pipeline)" \
@@ -181,10 +209,11 @@ count_x86() {  # dataset -> "frames frontend backend pipeline process" (M per fr
     | awk '{ v[$1] = $2 } END { print v["frames"], v["frontend"], v["backend"], v["total"], v["process"] }'
 }
 
-"$root/scripts/deps.sh" aarch64 >/dev/null
+if [[ $cycles -eq 1 ]]; then "$root/scripts/deps.sh" cycles >/dev/null; else "$root/scripts/deps.sh" aarch64 >/dev/null; fi
 plugin_header
 plugin=$(build_plugin)
 self_test "$plugin"
+[[ $cycles -eq 1 ]] && python3 "$root/scripts/cycle_model.py" --self-test >/dev/null
 if [[ ! -x "$arm_umsvins" || -n "$(find "$root/core" "$root/hal" "$root/board" "$root/solver" -newer "$arm_umsvins" -name '*.[ch]pp' -print -quit)" ]]; then
   echo "instructions_aarch64: building $arm_umsvins (scripts/build-arm.sh rpi4)"
   "$root/scripts/build-arm.sh" rpi4 >/dev/null
@@ -218,6 +247,10 @@ for ds in "${datasets[@]}"; do
       for i in "${!fn_labels[@]}"; do
         printf '%-22s %-24s %6s %10s M/frame  (%s*)\n' "" "  ${fn_labels[$i]}" "" "${values[$i]}" "${fn_prefixes[$i]}"
       done
+    fi
+    if [[ "$arch" == aarch64* && $cycles -eq 1 ]]; then
+      echo "  Cortex-A72 model of the pipeline (scripts/cycle_model.py):"
+      sed 's/^/    /' "$work/$tag.model"
     fi
   done
 done

@@ -9,6 +9,15 @@
  *                          difference to where qemu runs it
  *   fn=LABEL:0xADDR:0xSIZE a function's entry and size (nm -S); functions with the same label
  *                          count into one stage
+ *   blocks=PATH            also write, per translated block, how often it ran while the stage
+ *                          block_stage=LABEL was active, with its instruction words (input of
+ *                          scripts/cycle_model.py: basic-block throughput by llvm-mca)
+ *   cache=L1:W1:L2:W2      also simulate a data cache of L1 bytes (W1 ways) and a unified L2 of L2
+ *                          bytes (W2 ways), 64-byte lines, LRU, fed by every load and store of the
+ *                          program; the accesses and misses of block_stage are written, the
+ *                          load misses also split into strided ones (the same instruction's
+ *                          last three accesses, this one included, were equally many bytes apart:
+ *                          a stride prefetcher would have fetched the line) and irregular ones
  *
  * How a function's activity is followed without register access (the 7.2 API has none): a call
  * enters at the function's first instruction, which always starts a translation block (a branch
@@ -18,6 +27,7 @@
  * it was entered by one (the tail caller's return address is the same). State per vCPU (qemu-user
  * runs one per guest thread). The script refuses the figures unless every entry came back. */
 #include <inttypes.h>
+#include <pthread.h>
 #include <stdbool.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -57,7 +67,18 @@ typedef struct {
   uint64_t start_pc;
   uint32_t n_insns;
   uint32_t enter_mask;
+  uint64_t stage_execs; /* runs while block_stage was active (blocks=) */
+  uint32_t* words;      /* the instructions (blocks=) */
+  uint64_t load_l1_misses, load_l2_misses, irregular_l2_misses; /* of its loads in block_stage (cache=) */
 } BlockInfo;
+
+/* One set-associative level: tags and last-use stamps, set-major. */
+typedef struct {
+  int sets, ways;
+  uint64_t* tags;
+  uint64_t* stamps;
+  uint64_t clock;
+} CacheLevel;
 
 static Function fns[kMaxFns];
 static int n_fns;
@@ -68,8 +89,33 @@ static bool have_bias;
 static int64_t load_bias;
 static Vcpu vcpus[kMaxVcpus];
 static const char* out_path;
+static const char* blocks_path;
+static const char* block_stage_name;
+static int block_stage = -1;
+static BlockInfo** blocks; /* every translation, for blocks= */
+static size_t n_blocks, cap_blocks;
+static pthread_mutex_t blocks_lock = PTHREAD_MUTEX_INITIALIZER;
+static bool simulate_cache;
+static CacheLevel l1, l2;
+/* In block_stage, [0] loads, [1] stores: line accesses, L1 misses, L2 misses; and the loads' misses
+ * no stride explains. */
+static uint64_t stage_accesses[2], stage_l1_misses[2], stage_l2_misses[2];
+static uint64_t irregular_l1_misses, irregular_l2_misses;
+
+/* A memory instruction: its block (per-block miss counts) and its last misses (stride). */
+typedef struct {
+  BlockInfo* block;
+  uint64_t last_addr; /* of its last access */
+  int64_t stride;     /* bytes, between its last two accesses */
+} MemInsn;
 
 static Vcpu* vcpu_of(unsigned index) { return &vcpus[index % kMaxVcpus]; }
+
+static uint32_t word_of(const struct qemu_plugin_insn* insn) {
+  uint32_t w = 0;
+  if (qemu_plugin_insn_size(insn) == 4) memcpy(&w, qemu_plugin_insn_data(insn), 4);
+  return w;
+}
 
 static void on_block(unsigned vcpu_index, void* udata) {
   const BlockInfo* b = (const BlockInfo*)udata;
@@ -93,15 +139,87 @@ static void on_block(unsigned vcpu_index, void* udata) {
   for (int l = 0; l < n_labels; ++l) {
     if (v->active[l] > 0) v->in_stage[l] += b->n_insns;
   }
+  if (block_stage >= 0 && v->active[block_stage] > 0) __atomic_fetch_add(&((BlockInfo*)udata)->stage_execs, 1, __ATOMIC_RELAXED);
+}
+
+static bool cache_init(CacheLevel* c, uint64_t bytes, int ways) {
+  if (ways <= 0 || bytes < 64u * (uint64_t)ways) return false;
+  c->ways = ways;
+  c->sets = (int)(bytes / 64u / (uint64_t)ways);
+  if ((c->sets & (c->sets - 1)) != 0) return false; /* the set index is a mask */
+  c->tags = calloc((size_t)c->sets * (size_t)ways, sizeof *c->tags);
+  c->stamps = calloc((size_t)c->sets * (size_t)ways, sizeof *c->stamps);
+  return c->tags != NULL && c->stamps != NULL;
+}
+
+/* true on a hit; a miss fills the least recently used way. Tags are line + 1 (0: empty). */
+static bool cache_access(CacheLevel* c, uint64_t line) {
+  const size_t base = (size_t)(line & (uint64_t)(c->sets - 1)) * (size_t)c->ways;
+  size_t victim = base;
+  ++c->clock;
+  for (size_t w = base; w < base + (size_t)c->ways; ++w) {
+    if (c->tags[w] == line + 1) {
+      c->stamps[w] = c->clock;
+      return true;
+    }
+    if (c->stamps[w] < c->stamps[victim]) victim = w;
+  }
+  c->tags[victim] = line + 1;
+  c->stamps[victim] = c->clock;
+  return false;
+}
+
+static void access_line(uint64_t line, bool strided, bool in_stage, int store, MemInsn* m) {
+  if (cache_access(&l1, line)) {
+    if (in_stage) ++stage_accesses[store];
+    return;
+  }
+  const bool l2_hit = cache_access(&l2, line);
+  if (!in_stage) return;
+  ++stage_accesses[store];
+  ++stage_l1_misses[store];
+  if (!l2_hit) ++stage_l2_misses[store];
+  if (store == 0) {
+    ++m->block->load_l1_misses;
+    if (!l2_hit) ++m->block->load_l2_misses;
+    if (!strided) {
+      ++irregular_l1_misses;
+      if (!l2_hit) {
+        ++irregular_l2_misses;
+        ++m->block->irregular_l2_misses;
+      }
+    }
+  }
+}
+
+/* The replay's pipeline runs on one thread: one cache, no lock (a second thread would share it). */
+static void on_mem(unsigned vcpu_index, qemu_plugin_meminfo_t info, uint64_t vaddr, void* udata) {
+  const Vcpu* v = vcpu_of(vcpu_index);
+  const bool in_stage = block_stage >= 0 && v->active[block_stage] > 0;
+  const uint64_t size = 1u << qemu_plugin_mem_size_shift(info);
+  const uint64_t first = vaddr >> 6, last = (vaddr + size - 1) >> 6;
+  const int store = qemu_plugin_mem_is_store(info) ? 1 : 0;
+  MemInsn* m = (MemInsn*)udata;
+  const int64_t stride = (int64_t)(vaddr - m->last_addr);
+  const bool strided = stride != 0 && stride == m->stride;
+  m->stride = stride;
+  m->last_addr = vaddr;
+  for (uint64_t line = first; line <= last; ++line) access_line(line, strided, in_stage, store, m);
+}
+
+static void remember_block(BlockInfo* info, struct qemu_plugin_tb* tb) {
+  info->words = calloc(info->n_insns > 0 ? info->n_insns : 1, sizeof *info->words);
+  for (uint32_t i = 0; i < info->n_insns; ++i) info->words[i] = word_of(qemu_plugin_tb_get_insn(tb, i));
+  pthread_mutex_lock(&blocks_lock);
+  if (n_blocks == cap_blocks) {
+    cap_blocks = cap_blocks == 0 ? 4096 : 2 * cap_blocks;
+    blocks = realloc(blocks, cap_blocks * sizeof *blocks);
+  }
+  blocks[n_blocks++] = info;
+  pthread_mutex_unlock(&blocks_lock);
 }
 
 static void on_call(unsigned vcpu_index, void* udata) { vcpu_of(vcpu_index)->last_call_pc = (uint64_t)(uintptr_t)udata; }
-
-static uint32_t word_of(const struct qemu_plugin_insn* insn) {
-  uint32_t w = 0;
-  if (qemu_plugin_insn_size(insn) == 4) memcpy(&w, qemu_plugin_insn_data(insn), 4);
-  return w;
-}
 
 static bool is_call(uint32_t w) {
   /* BL imm26; BLR Xn; BLRAA/BLRAAZ/BLRAB/BLRABZ (pointer authentication). */
@@ -128,14 +246,39 @@ static void on_translate(qemu_plugin_id_t id, struct qemu_plugin_tb* tb) {
   for (int f = 0; have_bias && f < n_fns; ++f) {
     if (info->start_pc == fns[f].elf_addr + (uint64_t)load_bias) info->enter_mask |= 1u << fns[f].label_index;
   }
+  if (blocks_path != NULL) remember_block(info, tb);
   qemu_plugin_register_vcpu_tb_exec_cb(tb, on_block, QEMU_PLUGIN_CB_NO_REGS, info);
   for (size_t i = 0; i < n; ++i) {
     struct qemu_plugin_insn* insn = qemu_plugin_tb_get_insn(tb, i);
+    if (simulate_cache) {
+      MemInsn* m = calloc(1, sizeof *m); /* lives as long as the block */
+      m->block = info;
+      qemu_plugin_register_vcpu_mem_cb(insn, on_mem, QEMU_PLUGIN_CB_NO_REGS, QEMU_PLUGIN_MEM_RW, m);
+    }
     if (is_call(word_of(insn))) {
       qemu_plugin_register_vcpu_insn_exec_cb(insn, on_call, QEMU_PLUGIN_CB_NO_REGS,
                                              (void*)(uintptr_t)qemu_plugin_insn_vaddr(insn));
     }
   }
+}
+
+/* "block 0xELF_ADDR n_insns runs load_l1_misses load_l2_misses irregular_l2_misses word..." for each translation that ran in block_stage. */
+static void write_blocks(void) {
+  FILE* f = fopen(blocks_path, "w");
+  if (f == NULL) {
+    qemu_plugin_outs("qemu_insn_stages: cannot write the blocks (blocks=)\n");
+    return;
+  }
+  for (size_t k = 0; k < n_blocks; ++k) {
+    const BlockInfo* b = blocks[k];
+    if (b->stage_execs == 0) continue;
+    fprintf(f, "block 0x%" PRIx64 " %" PRIu32 " %" PRIu64 " %" PRIu64 " %" PRIu64 " %" PRIu64,
+            b->start_pc - (uint64_t)load_bias, b->n_insns, b->stage_execs, b->load_l1_misses, b->load_l2_misses,
+            b->irregular_l2_misses);
+    for (uint32_t i = 0; i < b->n_insns; ++i) fprintf(f, " %08" PRIx32, b->words[i]);
+    fputc('\n', f);
+  }
+  fclose(f);
 }
 
 static void write_counts(qemu_plugin_id_t id, void* udata) {
@@ -163,7 +306,17 @@ static void write_counts(qemu_plugin_id_t id, void* udata) {
     fprintf(f, "stage %s %" PRIu64 "\nentries %s %" PRIu64 "\nreturns %s %" PRIu64 "\n", labels[l], in, labels[l],
             entries, labels[l], returns);
   }
+  if (simulate_cache) {
+    for (int k = 0; k < 2; ++k) {
+      const char* kind = k == 0 ? "load" : "store";
+      fprintf(f, "accesses %s %" PRIu64 "\nl1_misses %s %" PRIu64 "\nl2_misses %s %" PRIu64 "\n", kind, stage_accesses[k],
+              kind, stage_l1_misses[k], kind, stage_l2_misses[k]);
+    }
+    fprintf(f, "l1_misses irregular_load %" PRIu64 "\nl2_misses irregular_load %" PRIu64 "\n", irregular_l1_misses,
+            irregular_l2_misses);
+  }
   fclose(f);
+  if (blocks_path != NULL) write_blocks();
 }
 
 static int label_index_of(const char* label) {
@@ -208,16 +361,37 @@ QEMU_PLUGIN_EXPORT int qemu_plugin_install(qemu_plugin_id_t id, const qemu_info_
       main_elf_addr = strtoull(a + 5, NULL, 16);
     } else if (strncmp(a, "fn=", 3) == 0) {
       ok = parse_fn(a + 3);
+    } else if (strncmp(a, "blocks=", 7) == 0) {
+      blocks_path = a + 7;
+    } else if (strncmp(a, "block_stage=", 12) == 0) {
+      block_stage_name = a + 12;
+    } else if (strncmp(a, "cache=", 6) == 0) {
+      unsigned long long b1 = 0, b2 = 0;
+      int w1 = 0, w2 = 0;
+      ok = sscanf(a + 6, "%llu:%d:%llu:%d", &b1, &w1, &b2, &w2) == 4 && cache_init(&l1, b1, w1) && cache_init(&l2, b2, w2);
+      simulate_cache = ok;
     } else {
       ok = false;
     }
     if (!ok) {
-      fprintf(stderr, "qemu_insn_stages: bad argument '%s' (out=PATH, main=0xADDR, fn=LABEL:0xADDR:0xSIZE)\n", a);
+      fprintf(stderr,
+              "qemu_insn_stages: bad argument '%s' (out=PATH, main=0xADDR, fn=LABEL:0xADDR:0xSIZE, blocks=PATH, "
+              "block_stage=LABEL, cache=L1BYTES:WAYS:L2BYTES:WAYS with power-of-two sets)\n",
+              a);
       return 1;
     }
   }
   if (out_path == NULL || (n_fns > 0 && main_elf_addr == 0)) {
     fprintf(stderr, "qemu_insn_stages: needs out=PATH, and main=0xADDR with fn=\n");
+    return 1;
+  }
+  if (block_stage_name != NULL) {
+    for (int l = 0; l < n_labels; ++l) {
+      if (strcmp(labels[l], block_stage_name) == 0) block_stage = l;
+    }
+  }
+  if ((blocks_path != NULL || simulate_cache) && block_stage < 0) {
+    fprintf(stderr, "qemu_insn_stages: blocks= and cache= need block_stage=LABEL, a label of fn=\n");
     return 1;
   }
   qemu_plugin_register_vcpu_tb_trans_cb(id, on_translate);
