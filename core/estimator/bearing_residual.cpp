@@ -8,19 +8,30 @@
 
 namespace ums {
 
+namespace {
+
+// v / |v| with one division: the A72 divides (and takes roots) far slower than it multiplies, and
+// this runs for every edge of every problem build (docs/performance.md, "Cycles on a Cortex-A72
+// model").
+Eigen::Vector3d unit(const Eigen::Vector3d& v) {
+  const double n = v.norm();
+  return n > 0.0 ? Eigen::Vector3d(v * (1.0 / n)) : v;
+}
+
+}  // namespace
 void BearingResidual::set(Kind kind, bool same_camera, const Eigen::Vector3d& b_host,
                           const Eigen::Vector3d& b_target, double weight) {
   cache_ = nullptr;
   has_td_ = false;
   kind_ = kind;
   same_camera_ = kind == Kind::kSameFrame ? false : same_camera;
-  b_host_ = b_host.normalized();
-  b_target_ = b_target.normalized();
+  b_host_ = unit(b_host);
+  b_target_ = unit(b_target);
   weight_ = weight;
   // Any orthonormal pair normal to b_target: start from the axis least aligned with it.
   Eigen::Vector3d a = Eigen::Vector3d::UnitX();
   if (std::abs(b_target_.x()) > 0.6) a = Eigen::Vector3d::UnitY();
-  const Eigen::Vector3d t1 = (a - b_target_ * b_target_.dot(a)).normalized();
+  const Eigen::Vector3d t1 = unit(a - b_target_ * b_target_.dot(a));
   tangent_.col(0) = t1;
   tangent_.col(1) = b_target_.cross(t1);
   count_blocks();
@@ -62,12 +73,12 @@ __attribute__((always_inline)) inline void BearingResidual::shifted_bearings(con
 }
 
 void BearingResidual::write_td_jacobian(const Eigen::Matrix<double, 2, 3>& D, const Eigen::Matrix3d& R_ct_ch,
-                                        double rho, const solver::JacobianView* jacobians) const {
+                                        double inv_rho, const solver::JacobianView* jacobians) const {
   const int k = num_blocks() - 1;
   if (!has_td_ || !jacobians[k].wanted()) return;
   // r = w B^T (u(P_ct) - b_t(td)): P_ct moves with the host bearing, b_t with its own velocity.
   solver::jacobian_map<2, 1>(jacobians[k]) =
-      D * (R_ct_ch * (-v_host_ / rho)) + weight_ * (tangent_.transpose() * v_target_);
+      D * (R_ct_ch * (-v_host_ * inv_rho)) + weight_ * (tangent_.transpose() * v_target_);
 }
 
 namespace {
@@ -101,12 +112,13 @@ __attribute__((always_inline)) inline bool BearingResidual::project(const Eigen:
                               Eigen::Matrix<double, 2, 3>* D) const {
   const double n = P_ct.norm();
   if (!(n > 1e-9) || P_ct.dot(b_target_) <= 0.0) return false;
-  const Eigen::Vector3d u = P_ct / n;
+  const double inv_n = 1.0 / n;
+  const Eigen::Vector3d u = P_ct * inv_n;
   Eigen::Map<Eigen::Vector2d> r(residuals);
   r = weight_ * (tangent_.transpose() * (u - b_target));
   if (!r.allFinite()) return false;
   // B^T (I - u u^T) = B^T - (B^T u) u^T.
-  if (D != nullptr) *D = (weight_ / n) * (tangent_.transpose() - (tangent_.transpose() * u) * u.transpose());
+  if (D != nullptr) *D = (weight_ * inv_n) * (tangent_.transpose() - (tangent_.transpose() * u) * u.transpose());
   return true;
 }
 
@@ -118,7 +130,8 @@ bool BearingResidual::evaluate_cached(const double* const* parameters, double* r
   const RelativePoseCache::Pair& c = cache_->pair(host_slot_, host_cam_, target_slot_, target_cam_);
   Eigen::Vector3d b_h, b_t;
   shifted_bearings(parameters, &b_h, &b_t);
-  const Eigen::Vector3d P_ch = b_h / rho;
+  const double inv_rho = 1.0 / rho;
+  const Eigen::Vector3d P_ch = b_h * inv_rho;
   const Eigen::Vector3d P_ct = c.R_ct_ch * P_ch + c.p_ct_ch;
   // The solver's cost passes hand a view with nothing wanted: then no d r / d P_ct either.
   const bool any = jacobians != nullptr && (jacobians[0].wanted() || jacobians[1].wanted() ||
@@ -144,8 +157,8 @@ bool BearingResidual::evaluate_cached(const double* const* parameters, double* r
     }
   }
   if (jacobians[k_rho].wanted())
-    solver::jacobian_map<2, 1>(jacobians[k_rho]) = D * (c.R_ct_ch * (-b_h / (rho * rho)));
-  if (has_td_) write_td_jacobian(D, c.R_ct_ch, rho, jacobians);
+    solver::jacobian_map<2, 1>(jacobians[k_rho]) = D * (c.R_ct_ch * (-P_ch * inv_rho));
+  if (has_td_) write_td_jacobian(D, c.R_ct_ch, inv_rho, jacobians);
   return true;
 }
 
@@ -163,13 +176,14 @@ struct Chain {
   bool two_frames = false;
   int k_ext_h = 0, k_ext_t = 0, k_rho = 0;  // parameter index of each block
   double rho = 0.0;
+  double inv_rho = 0.0;  // 1 / rho: one division per evaluation
   Pose ext_h{}, ext_t{}, pose_h{}, pose_t{};
   Eigen::Vector3d P_ch, P_bh, P_bt, P_ct;   // the point in host camera, host body, target body, target camera
   Eigen::Matrix<double, 2, 3> D;            // d residual / d P_ct
 };
 
 // d r / d (host pose, target pose, extrinsics, inverse depth) by the chain rule through P_ct.
-void write_jacobians(const Chain& c, const Eigen::Vector3d& b_host, const solver::JacobianView* jacobians) {
+void write_jacobians(const Chain& c, const solver::JacobianView* jacobians) {
   const Eigen::Matrix3d R_ct_bt = c.ext_t.R.transpose();
   const bool want_h = c.two_frames && jacobians[0].wanted();
   const bool want_t = c.two_frames && jacobians[1].wanted();
@@ -211,7 +225,7 @@ void write_jacobians(const Chain& c, const Eigen::Vector3d& b_host, const solver
     }
   }
   if (want_rho) {
-    const Eigen::Vector3d d_rho = M * (c.ext_h.R * (-b_host / (c.rho * c.rho)));
+    const Eigen::Vector3d d_rho = M * (c.ext_h.R * (-c.P_ch * c.inv_rho));
     solver::jacobian_map<2, 1>(jacobians[c.k_rho]) = c.D * d_rho;
   }
 }
@@ -239,7 +253,8 @@ bool BearingResidual::evaluate(const double* const* parameters, double* residual
 
   Eigen::Vector3d b_h, b_t;
   shifted_bearings(parameters, &b_h, &b_t);
-  c.P_ch = b_h / c.rho;
+  c.inv_rho = 1.0 / c.rho;
+  c.P_ch = b_h * c.inv_rho;
   c.P_bh = c.ext_h.R * c.P_ch + c.ext_h.p;
   if (c.two_frames) {
     c.pose_h = read_pose(parameters[0]);
@@ -252,11 +267,11 @@ bool BearingResidual::evaluate(const double* const* parameters, double* residual
   c.P_ct = c.ext_t.R.transpose() * (c.P_bt - c.ext_t.p);
   if (!project(c.P_ct, b_t, residuals, jacobians == nullptr ? nullptr : &c.D)) return false;
   if (jacobians == nullptr) return true;
-  write_jacobians(c, b_h, jacobians);
+  write_jacobians(c, jacobians);
   if (has_td_) {
     Eigen::Matrix3d R_bt_bh = Eigen::Matrix3d::Identity();
     if (c.two_frames) R_bt_bh = c.pose_t.R.transpose() * c.pose_h.R;
-    write_td_jacobian(c.D, c.ext_t.R.transpose() * R_bt_bh * c.ext_h.R, c.rho, jacobians);
+    write_td_jacobian(c.D, c.ext_t.R.transpose() * R_bt_bh * c.ext_h.R, c.inv_rho, jacobians);
   }
   return true;
 }

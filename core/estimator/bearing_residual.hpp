@@ -69,7 +69,7 @@ class BearingResidual final : public solver::ResidualFunction {
   // The measured bearings moved by the offset at these parameters (b_host_, b_target_ without one).
   void shifted_bearings(const double* const* parameters, Eigen::Vector3d* b_host, Eigen::Vector3d* b_target) const;
   // d r / d td from d r / d P_ct and the map of host-camera vectors into the target camera.
-  void write_td_jacobian(const Eigen::Matrix<double, 2, 3>& D, const Eigen::Matrix3d& R_ct_ch, double rho,
+  void write_td_jacobian(const Eigen::Matrix<double, 2, 3>& D, const Eigen::Matrix3d& R_ct_ch, double inv_rho,
                          const solver::JacobianView* jacobians) const;
 
   RelativePoseCache* cache_ = nullptr;
