@@ -159,6 +159,8 @@ class Problem {
   SolverStatus prepare();
   void mark_landmark_coupled();
   SolverStatus order_blocks();
+  void first_front_rows();
+  SolverStatus order_tail();
   void classify_residual(Residual& rb);
   void group_residuals();
   SolverStatus build_couplings();
@@ -218,6 +220,7 @@ class Problem {
   bool factor_and_solve();
   bool factor_and_solve_dense();
   bool factor_tail();
+  void subtract_tail_products();
   void solve_tail_forward();
   void solve_tail_backward();
   void back_substitute(int l);
@@ -272,8 +275,11 @@ class Problem {
   // chain. env_first_[j] (tail columns j): first row >= n_front_ that may be non-zero in column j
   // of the tail block (its envelope, preserved by Cholesky). split_: the tail is sparse enough to
   // be eliminated by an envelope Cholesky before a dense one on the front rows.
+  // tail_front_first_[j] (tail columns j): first front row that may be non-zero in column j of
+  // the front-tail block, B^T before factor_tail and X^T after it (n_front_: none).
   int n_front_ = 0;
   int env_first_[capacity::kMaxReducedDim] = {};
+  int tail_front_first_[capacity::kMaxReducedDim] = {};
   bool split_ = false;
   int mark_[capacity::kMaxParameterBlocks] = {};     // prepare(): last landmark listing a block
   int slot_of_[capacity::kMaxParameterBlocks] = {};  // prepare(): its coupling index there

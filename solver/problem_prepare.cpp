@@ -38,32 +38,81 @@ void Problem::mark_landmark_coupled() {
 }
 
 // Reduced ordering: blocks seen by landmarks (poses, extrinsics) first, in declaration order,
-// then the others (speed-biases, time offsets). The frames observing one landmark then occupy
-// contiguous rows, so its couplings merge into one or two long segments: the Schur updates and
-// the accumulation touch fewer, denser parts of the reduced matrix. Landmarks get their slots.
+// then the others (speed-biases, time offsets; order_tail). The frames observing one landmark
+// then occupy contiguous rows, so its couplings merge into one or two long segments: the Schur
+// updates and the accumulation touch fewer, denser parts of the reduced matrix. Landmarks get
+// their slots.
 SolverStatus Problem::order_blocks() {
   n_red_ = 0;
   num_lm_ = 0;
   mark_landmark_coupled();
-  for (int pass = 0; pass < 2; ++pass) {
-    if (pass == 1) n_front_ = n_red_;
-    for (int i = 0; i < num_blocks_; ++i) {
-      Block& b = blocks_[i];
-      if (pass == 0) b.index = -1;
-      if (b.constant) continue;
-      if (b.eliminate) {
-        if (pass == 1) continue;
-        if (num_lm_ >= capacity::kMaxEliminatedBlocks) return SolverStatus::kFull;
-        b.index = num_lm_;
-        lm_block_[num_lm_] = static_cast<std::int16_t>(i);
-        lm_dim_[num_lm_] = b.tangent;
-        ++num_lm_;
-      } else if (touched_[i] == (pass == 0)) {
-        if (n_red_ + b.tangent > capacity::kMaxReducedDim) return SolverStatus::kFull;
-        b.index = n_red_;
-        n_red_ += b.tangent;
-      }
+  for (int i = 0; i < num_blocks_; ++i) {
+    Block& b = blocks_[i];
+    b.index = -1;
+    if (b.constant) continue;
+    if (b.eliminate) {
+      if (num_lm_ >= capacity::kMaxEliminatedBlocks) return SolverStatus::kFull;
+      b.index = num_lm_;
+      lm_block_[num_lm_] = static_cast<std::int16_t>(i);
+      lm_dim_[num_lm_] = b.tangent;
+      ++num_lm_;
+    } else if (touched_[i]) {
+      if (n_red_ + b.tangent > capacity::kMaxReducedDim) return SolverStatus::kFull;
+      b.index = n_red_;
+      n_red_ += b.tangent;
     }
+  }
+  n_front_ = n_red_;
+  return order_tail();
+}
+
+// The first front row a residual or prior couples to each tail block (mark_[block]; n_front_
+// when none). Scratch: build_couplings() resets mark_ afterwards.
+void Problem::first_front_rows() {
+  for (int i = 0; i < num_blocks_; ++i) mark_[i] = n_front_;
+  auto visit = [this](const std::int16_t* ids, int n) {
+    int lo = n_front_;
+    for (int a = 0; a < n; ++a) {
+      const Block& b = blocks_[ids[a]];
+      if (!b.constant && !b.eliminate && b.index >= 0) lo = std::min(lo, b.index);
+    }
+    for (int a = 0; a < n; ++a) {
+      const Block& b = blocks_[ids[a]];
+      if (!b.constant && !b.eliminate && b.index < 0) mark_[ids[a]] = std::min(mark_[ids[a]], lo);
+    }
+  };
+  for (int k = 0; k < num_residuals_; ++k) visit(residuals_[k].blocks, residuals_[k].num_blocks);
+  for (int p = 0; p < num_priors_; ++p) visit(priors_[p].blocks, priors_[p].prior->num_blocks());
+}
+
+// Tail blocks by their first coupled front row, latest first; among equals, the later declared
+// first. The speed-biases of an IMU chain (declared oldest first, poses likewise) then come
+// newest first, a chain again, with the oldest, which the marginal prior couples to every pose,
+// last: the tail's elimination fills X = U^-T B^T (rows: front) as a staircase, each column
+// non-zero only from tail_front_first_ on (factor_tail), instead of filling it completely from
+// the first column on.
+SolverStatus Problem::order_tail() {
+  first_front_rows();
+  int order[capacity::kMaxReducedDim];
+  int n = 0;
+  for (int i = num_blocks_ - 1; i >= 0; --i) {
+    const Block& b = blocks_[i];
+    if (b.constant || b.eliminate || b.index >= 0) continue;
+    if (n == capacity::kMaxReducedDim) return SolverStatus::kFull;
+    // Insertion sort (a handful of blocks; std::stable_sort may allocate).
+    int at = n++;
+    while (at > 0 && mark_[order[at - 1]] < mark_[i]) {
+      order[at] = order[at - 1];
+      --at;
+    }
+    order[at] = i;
+  }
+  for (int k = 0; k < n; ++k) {
+    Block& b = blocks_[order[k]];
+    if (n_red_ + b.tangent > capacity::kMaxReducedDim) return SolverStatus::kFull;
+    b.index = n_red_;
+    for (int t = 0; t < b.tangent; ++t) tail_front_first_[n_red_ + t] = mark_[order[k]];
+    n_red_ += b.tangent;
   }
   return SolverStatus::kOk;
 }
@@ -245,6 +294,9 @@ void Problem::build_tail_envelope() {
     for (int a = 0; a < pr.prior->num_blocks(); ++a)
       for (int c = a + 1; c < pr.prior->num_blocks(); ++c) couple_tail(pr.blocks[a], pr.blocks[c]);
   }
+  // Column j of X takes its fill from the tail columns its envelope reaches (factor_tail).
+  for (int j = n_front_; j < n_red_; ++j)
+    for (int k = env_first_[j]; k < j; ++k) tail_front_first_[j] = std::min(tail_front_first_[j], tail_front_first_[k]);
   const int m = n_red_ - n_front_;
   long env = 0;
   for (int j = n_front_; j < n_red_; ++j) env += j - env_first_[j] + 1;

@@ -489,9 +489,8 @@ bool Problem::factor_and_solve() {
   if (!factor_tail()) return false;
   MatrixMap S = S_.m();
   const int nf = n_front_;
-  // A' = A - X^T X, then the dense LLT of the front rows.
-  S.topLeftCorner(nf, nf).selfadjointView<Eigen::Upper>().rankUpdate(
-      S.block(0, nf, nf, n_red_ - nf), -1.0);
+  subtract_tail_products();
+  // The dense LLT of the front rows.
   Eigen::Ref<Eigen::MatrixXd> A_ref(S.topLeftCorner(nf, nf));
   Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>, Eigen::Upper> llt(A_ref);
   if (llt.info() != Eigen::Success) return false;
@@ -500,6 +499,35 @@ bool Problem::factor_and_solve() {
   llt.solveInPlace(xa);
   solve_tail_backward();
   return dx_.allFinite();
+}
+
+// A' = A - X^T X on the upper triangle over the rows where X's columns can be non-zero
+// (tail_front_first_: a staircase when the tail is an IMU chain, order_tail), four tail columns
+// per pass over A. Each entry still takes the columns' terms one after the other in column order
+// (a column's rows above its own first row hold exact zeros): the same doubles as one column at a
+// time.
+void Problem::subtract_tail_products() {
+  MatrixMap S = S_.m();
+  const int nf = n_front_;
+  const Eigen::Index ld = S.outerStride();
+  double* s = S.data();
+  for (int j = nf; j < n_red_; j += 4) {
+    const int g = std::min(4, n_red_ - j);
+    const double* x[4];
+    int lo = nf;
+    for (int c = 0; c < 4; ++c) {
+      x[c] = s + (j + std::min(c, g - 1)) * ld;
+      if (c < g) lo = std::min(lo, tail_front_first_[j + c]);
+    }
+    for (int q = lo; q < nf; ++q) {
+      // Columns past g repeat the last one with a zero weight: x * 0 subtracts an exact zero.
+      double w[4];
+      for (int c = 0; c < 4; ++c) w[c] = c < g ? x[c][q] : 0.0;
+      double* aq = s + q * ld;
+      for (int p = lo; p <= q; ++p)
+        aq[p] = aq[p] - x[0][p] * w[0] - x[1][p] * w[1] - x[2][p] * w[2] - x[3][p] * w[3];
+    }
+  }
 }
 
 // One LLT of the whole reduced system.
@@ -540,10 +568,10 @@ bool Problem::factor_tail() {
     for (int k = fj; k < j; ++k) {
       const double u = cj[k];
       const double* xk = col(k);
-      for (int r = 0; r < nf; ++r) cj[r] -= u * xk[r];
+      for (int r = tail_front_first_[k]; r < nf; ++r) cj[r] -= u * xk[r];
     }
     const double inv = 1.0 / cj[j];
-    for (int r = 0; r < nf; ++r) cj[r] *= inv;
+    for (int r = tail_front_first_[j]; r < nf; ++r) cj[r] *= inv;
   }
   return true;
 }
@@ -567,7 +595,7 @@ void Problem::solve_tail_forward() {
   for (int j = nf; j < n; ++j) {
     const double* cj = col(j);
     const double y = x[j];
-    for (int r = 0; r < nf; ++r) x[r] += cj[r] * y;
+    for (int r = tail_front_first_[j]; r < nf; ++r) x[r] += cj[r] * y;
   }
 }
 
@@ -583,7 +611,7 @@ void Problem::solve_tail_backward() {
   for (int j = nf; j < n; ++j) {
     const double* cj = col(j);
     double d = x[j];
-    for (int r = 0; r < nf; ++r) d += cj[r] * x[r];
+    for (int r = tail_front_first_[j]; r < nf; ++r) d += cj[r] * x[r];
     x[j] = -d;
   }
   for (int j = n - 1; j >= nf; --j) {

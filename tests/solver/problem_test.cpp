@@ -232,11 +232,13 @@ class PointResidual final : public ResidualFunction {
   double m_[2];
 };
 
-TEST_CASE("Reduced ordering: blocks seen by landmarks first, in declaration order",
+TEST_CASE("Reduced ordering: blocks seen by landmarks first, in declaration order; the IMU chain newest first",
           "[solver][problem]") {
   // add_to_problem declares poses, then speed-biases, then the extrinsic: the extrinsic (observed
-  // through every reprojection) must come right after the variable poses, the speed-biases
-  // (IMU and prior only) after it, so a landmark's couplings form contiguous row segments.
+  // through every reprojection) must come right after the variable poses, so a landmark's
+  // couplings form contiguous row segments. The speed-biases (IMU only here) follow, by the first
+  // pose row their IMU terms reach, latest first: speed-bias i meets poses i-1..i+1 (pose 0 is
+  // constant), so 4, 3, then 2, 1, 0 (all reaching pose 1, the later declared first).
   auto w = bench::make_vio_window(small_window(true, false));
   auto problem = std::make_unique<Problem>();
   w->poses[0] = w->poses_true[0];
@@ -249,7 +251,7 @@ TEST_CASE("Reduced ordering: blocks seen by landmarks first, in declaration orde
   CHECK(problem->reduced_offset(0) == -1);
   for (int i = 1; i < F; ++i) CHECK(problem->reduced_offset(i) == 6 * (i - 1));
   CHECK(problem->reduced_offset(2 * F) == 6 * (F - 1));  // extrinsic
-  for (int i = 0; i < F; ++i) CHECK(problem->reduced_offset(F + i) == 6 * F + 9 * i);
+  for (int i = 0; i < F; ++i) CHECK(problem->reduced_offset(F + i) == 6 * F + 9 * (F - 1 - i));
   CHECK(problem->reduced_dim() == 6 * F + 9 * F);
   CHECK(problem->reduced_offset(2 * F + 1) == -1);  // a landmark is eliminated
 }
