@@ -13,7 +13,8 @@ summed. That is the basic-block throughput model: perfect caches, perfect branch
 block overlapped with copies of itself instead of its real neighbours. A store that updates its
 base register is modelled as the store and an add (split_writeback). The model charges a double
 division or square root 32 cycles and does not pipeline them (A57 figures; the A72 has a faster
-radix-16 divider), so their count is printed apart.
+radix-16 divider), so their count is printed apart. Total Cycles / 100 includes the pipeline's
+fill and drain once per 100 iterations (small).
 Memory: the loads that missed the simulated L1 (and L2) during the pipeline, from the counts file,
 priced at a stated latency each, without any overlap: the upper bound. The middle figure prices
 only the irregular misses (those no constant stride of the same instruction explains, which a
@@ -214,6 +215,8 @@ def main():
         d = entry[0] * sum(1 for w in key[1] if asm.get(w, "").startswith(("fdiv", "fsqrt")))
         fn[4] += d
         divides += d
+    if insns == 0 or cycles == 0:
+        sys.exit(f"cycle_model: {args.blocks}: no block ran in the stage")
     f = args.frames
     l1_load = counts.get(("l1_misses", "load"), 0)
     l2_load = counts.get(("l2_misses", "load"), 0)
@@ -226,7 +229,8 @@ def main():
           f"{unmodelled_insns / max(insns, 1) * 100:.3f} % not decodable)")
     print(f"core cycles         {cycles / f / 1e6:8.1f} M/frame  IPC {insns / cycles:.2f}  "
           f"{ms(cycles):.1f} ms at {args.ghz} GHz")
-    print(f"divisions, roots    {divides / f / 1e3:8.1f} k/frame (fdiv, fsqrt: 32 cycles each in the model, not pipelined)")
+    print(f"divisions, roots    {divides / f / 1e3:8.1f} k/frame (fdiv, fsqrt; not pipelined in the model: 32 cycles "
+          f"a double, 64 a pair)")
     print(f"load misses         L1 {l1_load / f / 1e3:.0f} k/frame, L2 {l2_load / f / 1e3:.0f} k/frame "
           f"(+{args.l2_cycles:g} / +{args.dram_cycles:g} cycles each); irregular L1 {l1_irr / f / 1e3:.0f} k, "
           f"L2 {l2_irr / f / 1e3:.0f} k")

@@ -107,33 +107,52 @@ self_test() {  # the plugin on a program whose counts are known: nested calls, a
 __attribute__((noinline)) void leaf(void) { NOPS(500); }
 __attribute__((noinline)) void middle(void) { NOPS(200); leaf(); } /* ends in a tail call at -O2 */
 __attribute__((noinline)) void outer(void) { NOPS(1000); middle(); NOPS(100); }
-/* The cache model's check: 4 MiB read twice (every 64-byte line misses L1 and the 1 MiB L2 both
-   times), then 16 KiB read 8 times (misses the first time only: the sweep evicted it). */
-static volatile long big[1 << 19], small[1 << 11];
+/* The cache model's checks (32 KiB 2-way L1, 1 MiB 16-way L2, 64-byte lines, LRU), stage sweep:
+   4 MiB read twice (every line misses L1 and L2 both times: 131,072), 512 KiB read twice 16 bytes
+   at a time (L1 misses both times, L2 the first time only: 16,384 and 8,192; qemu reports each
+   128-bit load as two 8-byte ones, which must still read as one strided stream), 16 KiB read 8
+   times (cold the first time only: 256 each); stage conflict: three lines 16 KiB apart, one L1
+   set, read in turn 3,000 times (a 2-way LRU L1 misses every time, L2 only at first). */
+static volatile long big[1 << 19], small[1 << 11], conflicting[3 << 11];
+typedef long Pair __attribute__((vector_size(16)));
+static volatile Pair mid[1 << 15];
 __attribute__((noinline)) long sweep(void) {
   long s = 0;
   for (int p = 0; p < 2; ++p) for (int i = 0; i < (1 << 19); ++i) s += big[i];
+  for (int p = 0; p < 2; ++p) for (int i = 0; i < (1 << 15); ++i) { const Pair x = mid[i]; s += x[0] + x[1]; }
   for (int p = 0; p < 8; ++p) for (int i = 0; i < (1 << 11); ++i) s += small[i];
   return s;
 }
-int main(void) { for (int i = 0; i < 10; ++i) outer(); leaf(); return (int)sweep(); }
+__attribute__((noinline)) long conflict(void) {
+  long s = 0;
+  for (int i = 0; i < 3000; ++i) s += conflicting[(i % 3) << 11];
+  return s;
+}
+int main(void) { for (int i = 0; i < 10; ++i) outer(); leaf(); return (int)(sweep() + conflict()); }
 SRC
   aarch64-linux-gnu-gcc -O2 -o "$work/selftest" "$work/selftest.c"
-  local nm_out="$work/selftest.nm" args
+  local nm_out="$work/selftest.nm" args stage
   aarch64-linux-gnu-nm -S --defined-only "$work/selftest" >"$nm_out"
   args=$(awk '$4 == "main" {printf "main=0x%s", $1}' "$nm_out")
-  args+=$(awk '$4 ~ /^(leaf|middle|outer|sweep)$/ {printf ",fn=%s:0x%s:0x%s", $4, $1, $2}' "$nm_out")
-  qemu-aarch64 -cpu cortex-a72 -L / -plugin "$1,out=$work/selftest.counts,$args,$cache_args,block_stage=sweep" "$work/selftest"
+  args+=$(awk '$4 ~ /^(leaf|middle|outer|sweep|conflict)$/ {printf ",fn=%s:0x%s:0x%s", $4, $1, $2}' "$nm_out")
+  for stage in sweep conflict; do
+    qemu-aarch64 -cpu cortex-a72 -L / -plugin "$1,out=$work/selftest.$stage,$args,$cache_args,block_stage=$stage" \
+      "$work/selftest"
+  done
   # Per call: outer 1000 + 200 + 500 + 100 nops, middle 700, leaf 500, plus a few instructions of
   # call, prologue and return each; leaf is entered 10 times by middle's tail call and once by main.
   awk '$1 == "stage" { n[$2] = $3 } $1 == "entries" { e[$2] = $3 } $1 == "returns" { r[$2] = $3 }
-       $1 == "l1_misses" { l1[$2] = $3 } $1 == "l2_misses" { l2[$2] = $3 }
+       $1 == "l1_misses" { l1[$2] = $3 } $1 == "l2_misses" { l2[$2] = $3 } $1 == "vcpus" { vcpus = $3 }
        END { ok = n["outer"] >= 18000 && n["outer"] <= 18300 && e["outer"] == 10 && r["outer"] == 10 &&
                   n["middle"] >= 7000 && n["middle"] <= 7100 && e["middle"] == 10 && r["middle"] == 10 &&
-                  n["leaf"] >= 5500 && n["leaf"] <= 5560 && e["leaf"] == 11 && r["leaf"] == 11 &&
-                  l1["load"] >= 131328 && l1["load"] <= 131828 && l2["load"] >= 131328 && l2["load"] <= 131828
-             exit ok ? 0 : 1 }' "$work/selftest.counts" \
-    || { echo "instructions_aarch64: the plugin's self-test failed:" >&2; cat "$work/selftest.counts" >&2; exit 1; }
+                  n["leaf"] >= 5500 && n["leaf"] <= 5560 && e["leaf"] == 11 && r["leaf"] == 11 && vcpus == 1 &&
+                  l1["load"] >= 147712 && l1["load"] <= 148212 && l2["load"] >= 139520 && l2["load"] <= 140020 &&
+                  l1["irregular_load"] <= 100
+             exit ok ? 0 : 1 }' "$work/selftest.sweep" \
+    || { echo "instructions_aarch64: the plugin's self-test failed (stage sweep):" >&2; cat "$work/selftest.sweep" >&2; exit 1; }
+  awk '$1 == "l1_misses" { l1[$2] = $3 } $1 == "l2_misses" { l2[$2] = $3 }
+       END { exit l1["load"] >= 3000 && l1["load"] <= 3100 && l2["load"] <= 50 ? 0 : 1 }' "$work/selftest.conflict" \
+    || { echo "instructions_aarch64: the plugin's self-test failed (stage conflict):" >&2; cat "$work/selftest.conflict" >&2; exit 1; }
 }
 
 symbol_args() {  # binary -> the plugin's main= and fn= arguments, from nm (C++ names demangled)
@@ -192,8 +211,10 @@ count_aarch64() {  # dataset tag -> "frames frontend backend pipeline process" (
   local frames
   frames=$(grep -o '"frames": [0-9]*' "$work/$tag.arm/stats.json" | awk '{print $2}')
   if [[ $cycles -eq 1 ]]; then
+    # $(...) clears errexit: a failed model must stop the run by hand.
+    [[ "$(field vcpus -)" == 1 ]] || { echo "instructions_aarch64: $tag: --cycles needs one thread" >&2; exit 1; }
     python3 "$root/scripts/cycle_model.py" "$work/$tag.blocks" "$c" --frames "$frames" --nm "$work/nm.txt" \
-      >"$work/$tag.model"
+      >"$work/$tag.model" || exit 1
   fi
   local extra=""
   for label in "${fn_labels[@]}"; do extra+=" $(field stage "$label")"; done

@@ -16,8 +16,10 @@
  *                          bytes (W2 ways), 64-byte lines, LRU, fed by every load and store of the
  *                          program; the accesses and misses of block_stage are written, the
  *                          load misses also split into strided ones (the same instruction's
- *                          last three accesses, this one included, were equally many bytes apart:
- *                          a stride prefetcher would have fetched the line) and irregular ones
+ *                          last three executions accessed addresses equally many bytes apart: a
+ *                          stride prefetcher would have fetched the line) and irregular ones. For
+ *                          one thread only (the replay's --deterministic pipeline): the vCPUs
+ *                          seen are written, and the script refuses the figures with more
  *
  * How a function's activity is followed without register access (the 7.2 API has none): a call
  * enters at the function's first instruction, which always starts a translation block (a branch
@@ -56,6 +58,7 @@ typedef struct {
   uint32_t active[kMaxLabels];    /* activations of the stage on the stack */
   uint64_t entries[kMaxLabels], returns[kMaxLabels];
   uint64_t last_call_pc;
+  uint64_t execs; /* blocks run: tells a memory instruction's executions apart */
   Activation stack[kMaxDepth];
   int depth;
   uint64_t overflows;
@@ -97,17 +100,23 @@ static size_t n_blocks, cap_blocks;
 static pthread_mutex_t blocks_lock = PTHREAD_MUTEX_INITIALIZER;
 static bool simulate_cache;
 static CacheLevel l1, l2;
-/* In block_stage, [0] loads, [1] stores: line accesses, L1 misses, L2 misses; and the loads' misses
- * no stride explains. */
+/* In block_stage, [0] loads, [1] stores: accesses (per cache line of each memory operation qemu
+ * reports; it splits a pair or a 128-bit access into 8-byte ones), L1 misses, L2 misses; and the
+ * loads' misses no stride explains. */
 static uint64_t stage_accesses[2], stage_l1_misses[2], stage_l2_misses[2];
 static uint64_t irregular_l1_misses, irregular_l2_misses;
 
-/* A memory instruction: its block (per-block miss counts) and its last misses (stride). */
+/* A memory instruction: its block (per-block miss counts) and its address history (stride), one
+ * address per execution (the first of the operations qemu reports for it). */
 typedef struct {
   BlockInfo* block;
-  uint64_t last_addr; /* of its last access */
-  int64_t stride;     /* bytes, between its last two accesses */
+  uint64_t last_exec; /* Vcpu::execs of its last execution */
+  uint64_t last_addr; /* first address of its last execution */
+  int64_t stride;     /* bytes, between its last two executions */
+  bool strided;       /* this execution's address continued the stride */
 } MemInsn;
+
+static uint32_t vcpus_seen;
 
 static Vcpu* vcpu_of(unsigned index) { return &vcpus[index % kMaxVcpus]; }
 
@@ -136,6 +145,7 @@ static void on_block(unsigned vcpu_index, void* udata) {
     ++v->active[l];
   }
   v->total += b->n_insns;
+  ++v->execs;
   for (int l = 0; l < n_labels; ++l) {
     if (v->active[l] > 0) v->in_stage[l] += b->n_insns;
   }
@@ -200,11 +210,14 @@ static void on_mem(unsigned vcpu_index, qemu_plugin_meminfo_t info, uint64_t vad
   const uint64_t first = vaddr >> 6, last = (vaddr + size - 1) >> 6;
   const int store = qemu_plugin_mem_is_store(info) ? 1 : 0;
   MemInsn* m = (MemInsn*)udata;
-  const int64_t stride = (int64_t)(vaddr - m->last_addr);
-  const bool strided = stride != 0 && stride == m->stride;
-  m->stride = stride;
-  m->last_addr = vaddr;
-  for (uint64_t line = first; line <= last; ++line) access_line(line, strided, in_stage, store, m);
+  if (m->last_exec != v->execs) {
+    const int64_t stride = (int64_t)(vaddr - m->last_addr);
+    m->strided = stride != 0 && stride == m->stride;
+    m->stride = stride;
+    m->last_addr = vaddr;
+    m->last_exec = v->execs;
+  }
+  for (uint64_t line = first; line <= last; ++line) access_line(line, m->strided, in_stage, store, m);
 }
 
 static void remember_block(BlockInfo* info, struct qemu_plugin_tb* tb) {
@@ -281,6 +294,12 @@ static void write_blocks(void) {
   fclose(f);
 }
 
+static void on_vcpu_init(qemu_plugin_id_t id, unsigned int vcpu_index) {
+  (void)id;
+  (void)vcpu_index;
+  __atomic_fetch_add(&vcpus_seen, 1, __ATOMIC_RELAXED);
+}
+
 static void write_counts(qemu_plugin_id_t id, void* udata) {
   (void)id;
   (void)udata;
@@ -294,8 +313,8 @@ static void write_counts(qemu_plugin_id_t id, void* udata) {
     total += vcpus[c].total;
     overflows += vcpus[c].overflows;
   }
-  fprintf(f, "total - %" PRIu64 "\nbias_found - %d\nstack_overflows - %" PRIu64 "\n", total, have_bias ? 1 : 0,
-          overflows);
+  fprintf(f, "total - %" PRIu64 "\nbias_found - %d\nstack_overflows - %" PRIu64 "\nvcpus - %" PRIu32 "\n", total,
+          have_bias ? 1 : 0, overflows, vcpus_seen);
   for (int l = 0; l < n_labels; ++l) {
     uint64_t in = 0, entries = 0, returns = 0;
     for (int c = 0; c < kMaxVcpus; ++c) {
@@ -394,6 +413,7 @@ QEMU_PLUGIN_EXPORT int qemu_plugin_install(qemu_plugin_id_t id, const qemu_info_
     fprintf(stderr, "qemu_insn_stages: blocks= and cache= need block_stage=LABEL, a label of fn=\n");
     return 1;
   }
+  qemu_plugin_register_vcpu_init_cb(id, on_vcpu_init);
   qemu_plugin_register_vcpu_tb_trans_cb(id, on_translate);
   qemu_plugin_register_atexit_cb(id, write_counts, NULL);
   return 0;
