@@ -70,12 +70,21 @@ SolverStatus Problem::order_blocks() {
 // when none). Scratch: build_couplings() resets mark_ afterwards.
 void Problem::first_front_rows() {
   for (int i = 0; i < num_blocks_; ++i) mark_[i] = n_front_;
+  // One pass finds the front rows and whether there is a tail block at all: a landmark's
+  // residuals, nearly all of them, have none, and stop there.
   auto visit = [this](const std::int16_t* ids, int n) {
     int lo = n_front_;
+    bool tail = false;
     for (int a = 0; a < n; ++a) {
       const Block& b = blocks_[ids[a]];
-      if (!b.constant && !b.eliminate && b.index >= 0) lo = std::min(lo, b.index);
+      if (b.constant || b.eliminate) continue;
+      if (b.index >= 0) {
+        lo = std::min(lo, b.index);
+      } else {
+        tail = true;
+      }
     }
+    if (!tail) return;
     for (int a = 0; a < n; ++a) {
       const Block& b = blocks_[ids[a]];
       if (!b.constant && !b.eliminate && b.index < 0) mark_[ids[a]] = std::min(mark_[ids[a]], lo);

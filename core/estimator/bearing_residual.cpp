@@ -19,6 +19,7 @@ Eigen::Vector3d unit(const Eigen::Vector3d& v) {
 }
 
 }  // namespace
+
 void BearingResidual::set(Kind kind, bool same_camera, const Eigen::Vector3d& b_host,
                           const Eigen::Vector3d& b_target, double weight) {
   cache_ = nullptr;
