@@ -181,6 +181,9 @@ class Problem {
   void accumulate_landmark1(const Residual& rb, int l, const double* Jl, const double* r);
   void accumulate_landmark(const Residual& rb, int l, const double* Jl, const double* r);
   bool linearize_prior(const PriorRef& p, bool jacobians, double* cost);
+  // Zeroes the upper triangle (with the diagonal) of H: the lower one is never read, and the
+  // 2 x 6 and prior blocks write some of it.
+  static void zero_upper(MatrixMap H);
   void zero_linear_system();
   bool linear_system_finite() const;
   // Cost (and, with jacobians, H_, b_, landmark blocks) at the current values; false if not finite.
@@ -233,6 +236,7 @@ class Problem {
   SolverStatus marginalize_prepared(const BlockId* ids, int n, MarginalPrior* out);
   SolverStatus select_marginalized(const BlockId* ids, int n);
   SolverStatus linearize_marginalized();
+  SolverStatus accumulate_marginalized();
   bool linearize_marginalized_landmark(int l);
   SolverStatus partition_marginal_rows(MarginalRows* rows);
   void gather_marginal_system(const MarginalRows& rows);
@@ -317,13 +321,19 @@ class Problem {
   double jac_ws_[capacity::kMaxBlocksPerResidual]
                 [capacity::kMaxResidualSize * capacity::kMaxBlockTangentSize] = {};
   bool jac_wanted_[capacity::kMaxBlocksPerResidual] = {};
+  JacobianView jac_view_[capacity::kMaxBlocksPerResidual];
+  const JacobianView no_jac_[capacity::kMaxBlocksPerResidual] = {};
 
   // Prior / marginalization workspace.
   DenseMatrix M_;
   DenseVector pe_;
   DenseVector pr_;
   bool marg_[capacity::kMaxParameterBlocks] = {};
+  // touched_: blocks the marginalization's residuals and priors reach (and, within prepare(), the
+  // blocks coupled to landmarks); mark_touched_: set while the marginalization accumulates, so that
+  // the solve's passes do not pay for marking.
   bool touched_[capacity::kMaxParameterBlocks] = {};
+  bool mark_touched_ = false;
   using MargMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor,
                                    capacity::kMaxMarginalizedDim, capacity::kMaxMarginalizedDim>;
   using KeptMargMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor,

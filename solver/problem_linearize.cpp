@@ -73,11 +73,15 @@ __attribute__((always_inline)) inline void add_jtj_2x6(double* Hb, Eigen::Index 
 }  // namespace
 
 bool Problem::evaluate_residual(const Residual& rb, bool jacobians, double* r, double* cost, double* keep) {
-  JacobianView jv[capacity::kMaxBlocksPerResidual];
-  for (int j = 0; j < rb.num_blocks; ++j) {
-    jac_wanted_[j] = jacobians && rb.variable[j];
-    jv[j].data = jac_wanted_[j] ? jac_ws_[j] : nullptr;
-    jv[j].row_stride = rb.tangent[j];
+  // A cost pass hands every residual the same views with nothing wanted (no_jac_, never written).
+  const JacobianView* jv = no_jac_;
+  if (jacobians) {
+    for (int j = 0; j < rb.num_blocks; ++j) {
+      jac_wanted_[j] = rb.variable[j];
+      jac_view_[j].data = rb.variable[j] ? jac_ws_[j] : nullptr;
+      jac_view_[j].row_stride = rb.tangent[j];
+    }
+    jv = jac_view_;
   }
   if (!rb.fn->evaluate(rb.params, r, jv)) return false;
   const int rows = rb.rows;
@@ -145,8 +149,9 @@ void Problem::accumulate_residual(int res_index, const double* r) {
   const int rows = rb.rows;
   if (rows == 2 && rb.fast2) {
     // marginalize() keeps exactly the touched blocks: the fast path must mark them too.
-    for (int a = 0; a < rb.num_blocks; ++a)
-      if (jac_wanted_[a]) touched_[rb.blocks[a]] = true;
+    if (mark_touched_)
+      for (int a = 0; a < rb.num_blocks; ++a)
+        if (jac_wanted_[a]) touched_[rb.blocks[a]] = true;
     accumulate_two_row(rb, r);
     return;
   }
@@ -167,7 +172,7 @@ int Problem::accumulate_reduced(const Residual& rb, const double* r) {
   for (int a = 0; a < rb.num_blocks; ++a) {
     if (!jac_wanted_[a]) continue;
     const Block& ba = blocks_[rb.blocks[a]];
-    touched_[rb.blocks[a]] = true;
+    if (mark_touched_) touched_[rb.blocks[a]] = true;
     if (ba.eliminate) {
       lm_j = a;
       continue;
@@ -268,7 +273,7 @@ bool Problem::linearize_prior(const PriorRef& p, bool jacobians, double* cost) {
   for (int i = 0; i < prior.num_blocks(); ++i) {
     const Block& bi = blocks_[p.blocks[i]];
     if (bi.constant) continue;
-    touched_[p.blocks[i]] = true;
+    if (mark_touched_) touched_[p.blocks[i]] = true;
     const PriorBlock& pi = prior.block(i);
     b_.segment(bi.index, bi.tangent) += pe_.segment(pi.offset, pi.tangent_size);
     for (int j = 0; j < prior.num_blocks(); ++j) {
@@ -282,8 +287,15 @@ bool Problem::linearize_prior(const PriorRef& p, bool jacobians, double* cost) {
   return true;
 }
 
+void Problem::zero_upper(MatrixMap H) {
+  for (Eigen::Index j = 0; j < H.cols(); ++j) {
+    double* col = H.data() + j * H.outerStride();
+    std::fill(col, col + j + 1, 0.0);
+  }
+}
+
 void Problem::zero_linear_system() {
-  H_.m().setZero();
+  zero_upper(H_.m());
   b_.setZero();
   for (int l = 0; l < num_lm_; ++l) {
     for (int i = 0; i < 9; ++i) Hll_[l][i] = 0.0;

@@ -75,8 +75,15 @@ SolverStatus Problem::select_marginalized(const BlockId* ids, int n) {
 // H_, b_ from the residuals and priors touching marginalized blocks, landmarks eliminated.
 SolverStatus Problem::linearize_marginalized() {
   if (callback_ != nullptr) callback_->prepare_for_evaluation();
-  H_.m().setZero();
+  zero_upper(H_.m());
   b_.setZero();
+  mark_touched_ = true;
+  const SolverStatus st = accumulate_marginalized();
+  mark_touched_ = false;
+  return st;
+}
+
+SolverStatus Problem::accumulate_marginalized() {
   double r[capacity::kMaxResidualSize];
   double c = 0.0;
   for (int q = 0; q < num_free_res_; ++q) {
