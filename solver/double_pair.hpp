@@ -8,6 +8,8 @@
 
 #include <cstring>
 
+#include <Eigen/Core>
+
 namespace ums::solver {
 
 typedef double Pair __attribute__((vector_size(16)));
@@ -68,6 +70,52 @@ inline void add_jtj_any(double* Hb, long ld, const double* A, int ta, const doub
       for (int r = 1; r < rows; ++r) s += A[r * ta + i] * B[r * tb + j];
       col[i] += s;
     }
+  }
+}
+
+// col[0..N) += a0 * b0 + a1 * b1: one column of a 2-row J^T J block in whole packets of 2.
+// Written with explicit packets because GCC's own vectorizer turns the unrolled triangle into
+// scalar code.
+template <int N>
+__attribute__((always_inline)) inline void col_update2(double* col, const Pair* a0, const Pair* a1, double b0,
+                                                       double b1) {
+  const Pair vb0 = {b0, b0}, vb1 = {b1, b1};
+  for (int i = 0; i < N / 2; ++i) {
+    store_pair(col + 2 * i, load_pair(col + 2 * i) + (a0[i] * vb0 + a1[i] * vb1));
+  }
+}
+
+// H(0..6, 0..6) += A^T C for 2 x 6 row-major A, C; H column-major with leading dimension ld.
+// Upper = true (C == A, a diagonal block): only the upper triangle, rounded up to whole packets of
+// 2 rows (the few lower entries written are never read). A is held in registers across columns.
+template <bool Upper>
+__attribute__((always_inline)) inline void add_jtj_2x6(double* Hb, Eigen::Index ld, const double* A,
+                                                       const double* C) {
+  Pair a0[3], a1[3];
+  for (int i = 0; i < 3; ++i) {
+    a0[i] = load_pair(A + 2 * i);
+    a1[i] = load_pair(A + 6 + 2 * i);
+  }
+  if constexpr (Upper) {
+    col_update2<2>(Hb, a0, a1, A[0], A[6]);
+    col_update2<2>(Hb + ld, a0, a1, A[1], A[7]);
+    col_update2<4>(Hb + 2 * ld, a0, a1, A[2], A[8]);
+    col_update2<4>(Hb + 3 * ld, a0, a1, A[3], A[9]);
+    col_update2<6>(Hb + 4 * ld, a0, a1, A[4], A[10]);
+    col_update2<6>(Hb + 5 * ld, a0, a1, A[5], A[11]);
+  } else {
+    for (int j = 0; j < 6; ++j) col_update2<6>(Hb + j * ld, a0, a1, C[j], C[6 + j]);
+  }
+}
+
+// col[0..N) += a0 * b0 + a1 * b1 + a2 * b2 (a_k: N / 2 packets): one column of a 3-row product
+// G^T X (the point-lifted landmarks' host blocks, problem_lift.cpp).
+template <int N>
+__attribute__((always_inline)) inline void col_update3(double* col, const Pair* a0, const Pair* a1, const Pair* a2,
+                                                       double b0, double b1, double b2) {
+  const Pair vb0 = {b0, b0}, vb1 = {b1, b1}, vb2 = {b2, b2};
+  for (int i = 0; i < N / 2; ++i) {
+    store_pair(col + 2 * i, load_pair(col + 2 * i) + (a0[i] * vb0 + a1[i] * vb1 + a2[i] * vb2));
   }
 }
 

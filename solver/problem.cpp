@@ -14,6 +14,7 @@ void Problem::clear() {
   num_blocks_ = 0;
   num_residuals_ = 0;
   num_priors_ = 0;
+  num_lifts_ = 0;
   prepared_ = false;
 }
 
@@ -37,6 +38,7 @@ SolverStatus Problem::add_parameter_block(double* values, int ambient_size, Mani
   b.constant = false;
   b.eliminate = eliminate;
   b.index = -1;
+  b.lift = -1;
   if (id != nullptr) *id = num_blocks_;
   ++num_blocks_;
   prepared_ = false;
@@ -72,6 +74,28 @@ SolverStatus Problem::add_residual(const ResidualFunction* fn, const RobustLoss&
   rb.num_blocks = static_cast<std::int8_t>(n);
   rb.rows = static_cast<std::int8_t>(rows);
   for (int k = 0; k < n; ++k) rb.blocks[k] = static_cast<std::int16_t>(ids[k]);
+  prepared_ = false;
+  return SolverStatus::kOk;
+}
+
+SolverStatus Problem::set_point_lift(const PointLift* lift, BlockId host, BlockId landmark, const BlockId* others,
+                                     int n_others) {
+  if (lift == nullptr || n_others < 0 || 2 + n_others > capacity::kMaxBlocksPerResidual)
+    return SolverStatus::kInvalidInput;
+  const auto valid = [this](BlockId id) { return id >= 0 && id < num_blocks_; };
+  if (!valid(host) || !valid(landmark) || blocks_[host].eliminate || !blocks_[landmark].eliminate ||
+      blocks_[landmark].lift >= 0)
+    return SolverStatus::kInvalidInput;
+  for (int i = 0; i < n_others; ++i)
+    if (!valid(others[i])) return SolverStatus::kInvalidInput;
+  if (num_lifts_ >= capacity::kMaxEliminatedBlocks) return SolverStatus::kFull;
+  LiftRef& lr = lifts_[num_lifts_];
+  lr.fn = lift;
+  lr.blocks[0] = static_cast<std::int16_t>(host);
+  lr.blocks[1] = static_cast<std::int16_t>(landmark);
+  for (int i = 0; i < n_others; ++i) lr.blocks[2 + i] = static_cast<std::int16_t>(others[i]);
+  lr.num_blocks = static_cast<std::int8_t>(2 + n_others);
+  blocks_[landmark].lift = static_cast<std::int16_t>(num_lifts_++);
   prepared_ = false;
   return SolverStatus::kOk;
 }

@@ -77,6 +77,13 @@ class Problem {
                             std::initializer_list<BlockId> ids) {
     return add_residual(fn, loss, ids.begin(), static_cast<int>(ids.size()));
   }
+  // Landmark `landmark` is seen through lift's point (residual.hpp, PointLift): p(host, landmark,
+  // others[0..n_others)). Its residuals that support point Jacobians and read host get them while
+  // host and landmark are variable (a 6-dof host, a 1-dof landmark); the others, and every
+  // residual otherwise, are linearized as usual. Results agree with the plain linearization to
+  // rounding. `lift` must stay valid until clear().
+  SolverStatus set_point_lift(const PointLift* lift, BlockId host, BlockId landmark, const BlockId* others,
+                              int n_others);
   // A marginalization prior over ids[i] <-> prior->block(i) (same manifold and size; no eliminated
   // blocks). `prior` must stay valid and unchanged until clear().
   SolverStatus add_prior(const MarginalPrior* prior, const BlockId* ids);
@@ -126,6 +133,12 @@ class Problem {
     bool constant = false;
     bool eliminate = false;
     int index = -1;  // reduced: row offset; eliminated: landmark slot; -1 when constant
+    std::int16_t lift = -1;  // eliminated: its entry in lifts_, or -1
+  };
+  struct LiftRef {
+    const PointLift* fn = nullptr;
+    std::int16_t blocks[capacity::kMaxBlocksPerResidual] = {};  // host, landmark, others
+    std::int8_t num_blocks = 0;
   };
   struct Residual {
     const ResidualFunction* fn = nullptr;
@@ -140,6 +153,7 @@ class Problem {
     std::int8_t num_sorted = 0;  // variable reduced blocks, positions sorted by reduced row
     std::int8_t sorted[capacity::kMaxBlocksPerResidual] = {};
     std::int8_t lm_pos = -1;     // position of the variable eliminated block, or -1
+    std::int8_t lift_pos = -1;   // position of its landmark's lift host when linearized through the point
     // Cached by prepare(): value pointers, tangent sizes and variable flags of the blocks.
     const double* params[capacity::kMaxBlocksPerResidual] = {};
     std::int8_t tangent[capacity::kMaxBlocksPerResidual] = {};
@@ -163,6 +177,7 @@ class Problem {
   SolverStatus order_tail();
   void classify_residual(Residual& rb);
   void group_residuals();
+  void assign_lifts();
   SolverStatus build_couplings();
   SolverStatus collect_couplings(int l, int* ids, int* n_ids);
   SolverStatus add_couplings(int l, const int* ids, int n_ids, int* v_used);
@@ -177,6 +192,12 @@ class Problem {
   bool evaluate_residual(const Residual& rb, bool jacobians, double* r, double* cost, double* keep = nullptr);
   void accumulate_residual(int res_index, const double* r);
   void accumulate_two_row(const Residual& rb, const double* r);
+  // Point-lifted landmarks (problem_linearize.cpp): a landmark's sums start, each residual adds
+  // A^T A, A^T r, A^T J_c and its other blocks' terms, the end forms the host and landmark terms.
+  void begin_lift(int l);
+  void accumulate_lifted(const Residual& rb, const double* r);
+  bool finish_lift(int l);
+  void add_lift_couplings(int l, const double* G);
   int accumulate_reduced(const Residual& rb, const double* r);
   void accumulate_landmark1(const Residual& rb, int l, const double* Jl, const double* r);
   void accumulate_landmark(const Residual& rb, int l, const double* Jl, const double* r);
@@ -249,6 +270,8 @@ class Problem {
   int num_residuals_ = 0;
   PriorRef priors_[capacity::kMaxPriors];
   int num_priors_ = 0;
+  LiftRef lifts_[capacity::kMaxEliminatedBlocks];
+  int num_lifts_ = 0;
   bool prepared_ = false;
   EvaluationCallback* callback_ = nullptr;
 
@@ -294,6 +317,15 @@ class Problem {
   double Hll_[capacity::kMaxEliminatedBlocks][9] = {};
   double gl_[capacity::kMaxEliminatedBlocks][3] = {};
   double v_[capacity::kMaxCouplingEntries] = {};
+  // Point lifts: per landmark slot its lift (lifts_ index) when used, else -1; one landmark's sums
+  // while it is linearized: S = sum A^T A (3 x 3), s = sum A^T r, X_c = sum A^T J_c (3 x 6 row-major)
+  // per coupling of the landmark (local index), and the host's coupling.
+  std::int16_t lm_lift_[capacity::kMaxEliminatedBlocks] = {};
+  double lift_S_[9] = {};
+  double lift_s_[3] = {};
+  double lift_X_[capacity::kMaxCouplingsPerLandmark][18] = {};
+  bool lift_used_[capacity::kMaxCouplingsPerLandmark] = {};
+  int lift_host_slot_ = -1;
 
   // Step computation.
   DenseMatrix S_;

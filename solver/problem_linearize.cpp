@@ -35,41 +35,6 @@ inline void add_jtr(DenseVector& b, int o, const double* J, int t, const double*
   add_jtj_any(b.data() + o, 0, J, t, r, 1, rows);
 }
 
-// col[0..N) += a0 * b0 + a1 * b1: one column of a 2-row J^T J block in whole packets of 2.
-// Written with explicit packets because GCC's own vectorizer turns the unrolled triangle into
-// scalar code.
-template <int N>
-__attribute__((always_inline)) inline void col_update2(double* col, const Pair* a0, const Pair* a1, double b0,
-                                                       double b1) {
-  const Pair vb0 = {b0, b0}, vb1 = {b1, b1};
-  for (int i = 0; i < N / 2; ++i) {
-    store_pair(col + 2 * i, load_pair(col + 2 * i) + (a0[i] * vb0 + a1[i] * vb1));
-  }
-}
-
-// H(0..6, 0..6) += A^T C for 2 x 6 row-major A, C; H column-major with leading dimension ld.
-// Upper = true (C == A, a diagonal block): only the upper triangle, rounded up to whole packets of
-// 2 rows (the few lower entries written are never read). A is held in registers across columns.
-template <bool Upper>
-__attribute__((always_inline)) inline void add_jtj_2x6(double* Hb, Eigen::Index ld, const double* A,
-                                                       const double* C) {
-  Pair a0[3], a1[3];
-  for (int i = 0; i < 3; ++i) {
-    a0[i] = load_pair(A + 2 * i);
-    a1[i] = load_pair(A + 6 + 2 * i);
-  }
-  if constexpr (Upper) {
-    col_update2<2>(Hb, a0, a1, A[0], A[6]);
-    col_update2<2>(Hb + ld, a0, a1, A[1], A[7]);
-    col_update2<4>(Hb + 2 * ld, a0, a1, A[2], A[8]);
-    col_update2<4>(Hb + 3 * ld, a0, a1, A[3], A[9]);
-    col_update2<6>(Hb + 4 * ld, a0, a1, A[4], A[10]);
-    col_update2<6>(Hb + 5 * ld, a0, a1, A[5], A[11]);
-  } else {
-    for (int j = 0; j < 6; ++j) col_update2<6>(Hb + j * ld, a0, a1, C[j], C[6 + j]);
-  }
-}
-
 }  // namespace
 
 bool Problem::evaluate_residual(const Residual& rb, bool jacobians, double* r, double* cost, double* keep) {
@@ -80,6 +45,14 @@ bool Problem::evaluate_residual(const Residual& rb, bool jacobians, double* r, d
       jac_wanted_[j] = rb.variable[j];
       jac_view_[j].data = rb.variable[j] ? jac_ws_[j] : nullptr;
       jac_view_[j].row_stride = rb.tangent[j];
+      jac_view_[j].point = false;
+    }
+    if (rb.lift_pos >= 0) {
+      // d r / d point in the host's place; the landmark's column comes from the lift.
+      jac_view_[rb.lift_pos].row_stride = 3;
+      jac_view_[rb.lift_pos].point = true;
+      jac_view_[rb.lm_pos].data = nullptr;
+      jac_wanted_[rb.lm_pos] = false;
     }
     jv = jac_view_;
   }
@@ -103,7 +76,7 @@ bool Problem::evaluate_residual(const Residual& rb, bool jacobians, double* r, d
     const LossCorrector corrector(sq, rho);
     for (int j = 0; j < rb.num_blocks; ++j) {
       if (!jac_wanted_[j]) continue;
-      const int t = blocks_[rb.blocks[j]].tangent;
+      const int t = jac_view_[j].row_stride;  // the block's tangent, or 3 for a point Jacobian
       corrector.correct_jacobian(rows, t, t, r, jac_ws_[j]);
     }
     corrector.correct_residual(rows, r);
@@ -147,6 +120,10 @@ void Problem::accumulate_two_row(const Residual& rb, const double* r) {
 void Problem::accumulate_residual(int res_index, const double* r) {
   const Residual& rb = residuals_[res_index];
   const int rows = rb.rows;
+  if (rb.lift_pos >= 0) {
+    accumulate_lifted(rb, r);
+    return;
+  }
   if (rows == 2 && rb.fast2) {
     // marginalize() keeps exactly the touched blocks: the fast path must mark them too.
     if (mark_touched_)
@@ -327,11 +304,14 @@ bool Problem::linearize(bool jacobians, double* cost) {
     if (jacobians) accumulate_residual(free_res_[q], r);
   }
   for (int l = 0; l < num_lm_; ++l) {
+    const bool lifted = jacobians && lm_lift_[l] >= 0;
+    if (lifted) begin_lift(l);
     for (int q = lm_res_begin_[l]; q < lm_res_begin_[l + 1]; ++q) {
       if (!evaluate_residual(residuals_[lm_res_[q]], jacobians, r, &c, keep(lm_res_[q]))) return false;
       total += c;
       if (jacobians) accumulate_residual(lm_res_[q], r);
     }
+    if (lifted && !finish_lift(l)) return false;
   }
   for (int p = 0; p < num_priors_; ++p) {
     if (priors_[p].fixed) continue;

@@ -114,10 +114,13 @@ bool Problem::linearize_marginalized_landmark(int l) {
   for (int i = 0; i < 3; ++i) gl_[l][i] = 0.0;
   for (int a = lm_cpl_begin_[l]; a < lm_cpl_begin_[l + 1]; ++a)
     std::fill(v_ + cpl_v_[a], v_ + cpl_v_[a] + cpl_dim_[a] * lm_dim_[l], 0.0);
+  const bool lifted = lm_lift_[l] >= 0;
+  if (lifted) begin_lift(l);
   for (int q = lm_res_begin_[l]; q < lm_res_begin_[l + 1]; ++q) {
     if (!evaluate_residual(residuals_[lm_res_[q]], true, r, &c)) return false;
     accumulate_residual(lm_res_[q], r);
   }
+  if (lifted && !finish_lift(l)) return false;
   eliminate_landmark(l, 0.0, H_.m(), b_, false);
   return true;
 }

@@ -12,6 +12,7 @@ SolverStatus Problem::prepare() {
   SolverStatus st = order_blocks();
   if (st != SolverStatus::kOk) return st;
   group_residuals();
+  assign_lifts();
   st = build_couplings();
   if (st != SolverStatus::kOk) return st;
   mark_fixed_priors();
@@ -180,6 +181,30 @@ void Problem::group_residuals() {
   for (int l = 0; l < num_lm_; ++l) fill[l] = lm_res_begin_[l];
   for (int k = 0; k < num_residuals_; ++k)
     if (residuals_[k].landmark >= 0) lm_res_[fill[residuals_[k].landmark]++] = k;
+}
+
+// lm_lift_[l] for the landmarks whose lift applies (its host variable and 6-dof, the landmark
+// variable and 1-dof) and lift_pos for their residuals that take point Jacobians: 2 rows over
+// 6-dof reduced blocks (fast2), the host among them.
+void Problem::assign_lifts() {
+  for (int l = 0; l < num_lm_; ++l) {
+    const Block& lb = blocks_[lm_block_[l]];
+    lm_lift_[l] = -1;
+    if (lb.lift < 0 || lm_dim_[l] != 1) continue;
+    const Block& host = blocks_[lifts_[lb.lift].blocks[0]];
+    if (host.constant || host.tangent != 6) continue;
+    lm_lift_[l] = lb.lift;
+  }
+  for (int k = 0; k < num_residuals_; ++k) {
+    Residual& rb = residuals_[k];
+    rb.lift_pos = -1;
+    if (rb.landmark < 0 || lm_lift_[rb.landmark] < 0 || !rb.fast2 || rb.lm_pos < 0 ||
+        !rb.fn->supports_point_jacobian())
+      continue;
+    const int host = lifts_[lm_lift_[rb.landmark]].blocks[0];
+    for (int j = 0; j < rb.num_blocks; ++j)
+      if (rb.blocks[j] == host) rb.lift_pos = static_cast<std::int8_t>(j);
+  }
 }
 
 // Couplings landmark -> reduced blocks, sorted by row so every Schur block lands in the upper

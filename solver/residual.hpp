@@ -15,6 +15,10 @@ namespace ums::solver {
 struct JacobianView {
   double* data = nullptr;
   int row_stride = 0;
+  // Set only for a residual whose supports_point_jacobian() is true, at the position of its
+  // landmark's lift host (PointLift): write d r / d point (rows x 3) here instead of d r / d block;
+  // the landmark's own view is then not wanted.
+  bool point = false;
   bool wanted() const { return data != nullptr; }
 };
 
@@ -47,6 +51,25 @@ class ResidualFunction {
   // the solver treats that like a non-finite value. Must not allocate.
   virtual bool evaluate(const double* const* parameters, double* residuals,
                         const JacobianView* jacobians) const = 0;
+
+  // True: evaluate() honours JacobianView::point (see PointLift).
+  virtual bool supports_point_jacobian() const { return false; }
+};
+
+// A landmark seen through a point: every residual of the landmark depends on the landmark block
+// and on one reduced block, its host (e.g. the pose of the frame the landmark is anchored in), only
+// through a 3-vector p(host, landmark) (e.g. the landmark in the world), so its Jacobians with
+// respect to the two are A * G with A = d r / d p (rows x 3) per residual and G = d p / d (host,
+// landmark) shared. The solver then sums A^T A, A^T r and A^T J_c per landmark and forms the host
+// and landmark blocks from G once per landmark and pass instead of once per residual
+// (docs/solver.md, "Landmarks seen through a point"). Problem::set_point_lift declares it.
+class PointLift {
+ public:
+  virtual ~PointLift() = default;
+  // parameters: the values of the host, the landmark and the other blocks given to
+  // Problem::set_point_lift, in that order. Writes G = d p / d (host tangent, landmark tangent),
+  // 3 rows, row-major. false: not evaluable here (the pass fails as for a residual).
+  virtual bool evaluate(const double* const* parameters, double* G) const = 0;
 };
 
 }  // namespace ums::solver

@@ -7,7 +7,9 @@
 // timed apart from the solve; medians over --runs solves. The LAST line printed is JSON.
 //
 //   umsvins_bench_solver [--runs N] [--landmarks N] [--frames N] [--seed N] [--max-iterations N]
-//                        [--fixed-extrinsic 1] [--ours-only 1]
+//                        [--fixed-extrinsic 1] [--ours-only 1] [--point-lifts 0]
+// --point-lifts 0: ours linearizes every reprojection with its own host and inverse-depth
+// Jacobians instead of through the landmark's point (solver/residual.hpp, PointLift).
 
 #include <ceres/ceres.h>
 
@@ -259,6 +261,7 @@ int main(int argc, char** argv) {
   cfg.frames = arg_int(argc, argv, "--frames", 11);
   cfg.landmarks = arg_int(argc, argv, "--landmarks", 300);
   cfg.seed = static_cast<std::uint64_t>(arg_int(argc, argv, "--seed", 42));
+  cfg.point_lifts = arg_int(argc, argv, "--point-lifts", 1) != 0;
   const int runs = std::max(1, arg_int(argc, argv, "--runs", 9));
   us::SolverOptions opt;  // Ceres' defaults
   opt.max_iterations = arg_int(argc, argv, "--max-iterations", 20);

@@ -33,6 +33,8 @@ class ReprojectionResidual final : public solver::ResidualFunction {
         sqrt_info_(sqrt_info) {}
 
   int num_residuals() const override { return 2; }
+  // The point is p_w (HostPointLift): with jac[0].point, d r / d p_w goes there.
+  bool supports_point_jacobian() const override { return true; }
 
   bool evaluate(const double* const* x, double* residuals,
                 const solver::JacobianView* jac) const override {
@@ -72,7 +74,9 @@ class ReprojectionResidual final : public solver::ResidualFunction {
       out.row(1) = a.row(1).cross(v.transpose());
       return out;
     };
-    if (jac[0].wanted()) {
+    if (jac[0].wanted() && jac[0].point) {
+      solver::jacobian_map<2, 3>(jac[0]) = d_r_d_pw;
+    } else if (jac[0].wanted()) {
       auto J = solver::jacobian_map<2, 6>(jac[0]);
       J.leftCols<3>() = d_r_d_pw;
       J.rightCols<3>() = -times_skew(d_r_d_pbi, p_bi);
@@ -101,6 +105,29 @@ class ReprojectionResidual final : public solver::ResidualFunction {
   Eigen::Matrix3d R_c0_ct_;
   Eigen::Vector3d t_c0_ct_;
   double sqrt_info_;
+};
+
+// The point of ReprojectionResidual's landmark, p_w = T_w_bi (T_b_c0 (bearing_i / rho)), and
+// d p_w / d (pose_i tangent, rho) (solver::PointLift). Blocks: pose_i (7), rho (1), T_b_c0 (7).
+class HostPointLift final : public solver::PointLift {
+ public:
+  explicit HostPointLift(const Eigen::Vector3d& bearing_i) : bearing_i_(bearing_i) {}
+
+  bool evaluate(const double* const* x, double* G) const override {
+    const Eigen::Matrix3d R_i = Eigen::Map<const Eigen::Quaterniond>(x[0] + 3).toRotationMatrix();
+    const double rho = x[1][0];
+    const Eigen::Map<const Eigen::Vector3d> t_bc(x[2]);
+    const Eigen::Matrix3d R_bc = Eigen::Map<const Eigen::Quaterniond>(x[2] + 3).toRotationMatrix();
+    const Eigen::Vector3d p_bi = R_bc * (bearing_i_ / rho) + t_bc;
+    Eigen::Map<Eigen::Matrix<double, 3, 7, Eigen::RowMajor>> J(G);
+    J.leftCols<3>().setIdentity();
+    J.block<3, 3>(0, 3) = -R_i * skew(p_bi);
+    J.col(6) = R_i * (R_bc * (-bearing_i_ / (rho * rho)));
+    return true;
+  }
+
+ private:
+  Eigen::Vector3d bearing_i_;
 };
 
 // Stereo observation in the host frame: p_c1 = T_c0_c1^-1 (bearing / rho), r = sqrt_info

@@ -59,6 +59,7 @@ struct WindowConfig {
   double huber_delta = 1.0;        // whitened units (VINS)
   bool with_prior = true;
   bool noise_free = false;         // exact measurements and a zero-gradient prior: optimum = truth
+  bool point_lifts = true;         // add_to_problem declares each landmark's HostPointLift
   std::uint64_t seed = 42;
 };
 
@@ -81,6 +82,7 @@ struct VioWindow {
   std::array<double, 7> extrinsic{}, extrinsic_true{};
   std::vector<double> inv_depth, inv_depth_true;
   std::vector<int> host;  // host frame of each landmark
+  std::vector<std::unique_ptr<HostPointLift>> lifts;  // per landmark
   // Initial values (solves restart from these).
   std::vector<std::array<double, 7>> poses0;
   std::vector<std::array<double, 9>> speed_bias0;
@@ -194,6 +196,7 @@ inline std::unique_ptr<VioWindow> make_vio_window(const WindowConfig& cfg) {
     // (pixel noise only: a gross error in the host observation would corrupt the whole track)
     const Eigen::Vector2d uv_h = bearing[l].head<2>() + sigma * Eigen::Vector2d(rng.normal(), rng.normal());
     const Eigen::Vector3d b_meas(uv_h.x(), uv_h.y(), 1.0);
+    w->lifts.push_back(std::make_unique<HostPointLift>(b_meas));
     if (rng.uniform(0.0, 1.0) < cfg.stereo_fraction && project(h, p_w[l], true, &uv)) {
       w->functions.push_back(std::make_unique<StereoHostResidual>(b_meas, noisy(uv), q_c0c1, t_c0c1, sqrt_info));
       ResidualDesc d;
@@ -350,6 +353,11 @@ inline solver::SolverStatus add_to_problem(VioWindow& w, solver::Problem& proble
     solver::BlockId ids[4];
     for (int k = 0; k < r.num_blocks; ++k) ids[k] = id_of(r.blocks[k]);
     s = problem.add_residual(r.fn, r.loss, ids, r.num_blocks);
+  }
+  for (int l = 0; l < L && s == solver::SolverStatus::kOk && w.config.point_lifts; ++l) {
+    const solver::BlockId ext = 2 * F;
+    s = problem.set_point_lift(w.lifts[static_cast<std::size_t>(l)].get(), w.host[static_cast<std::size_t>(l)],
+                               2 * F + 1 + l, &ext, 1);
   }
   if (s == solver::SolverStatus::kOk && w.prior) {
     solver::BlockId ids[solver::capacity::kMaxReducedBlocks];
