@@ -8,17 +8,12 @@
 
 namespace ums {
 
-namespace {
-
-// v / |v| with one division: the A72 divides (and takes roots) far slower than it multiplies, and
-// this runs for every edge of every problem build (docs/performance.md, "Cycles on a Cortex-A72
-// model").
-Eigen::Vector3d unit(const Eigen::Vector3d& v) {
+// One division: the A72 divides (and takes roots) far slower than it multiplies, and this runs
+// for every edge of every problem build (docs/performance.md, "Cycles on a Cortex-A72 model").
+Eigen::Vector3d BearingResidual::unit(const Eigen::Vector3d& v) {
   const double n = v.norm();
   return n > 0.0 ? Eigen::Vector3d(v * (1.0 / n)) : v;
 }
-
-}  // namespace
 
 void BearingResidual::set(Kind kind, bool same_camera, const Eigen::Vector3d& b_host,
                           const Eigen::Vector3d& b_target, double weight) {
@@ -39,7 +34,7 @@ void BearingResidual::set(Kind kind, bool same_camera, const Eigen::Vector3d& b_
 }
 
 void BearingResidual::bind(RelativePoseCache* cache, int host_slot, int host_cam, int target_slot, int target_cam) {
-  cache_ = kind_ == Kind::kTwoFrames ? cache : nullptr;
+  cache_ = cache;
   host_slot_ = static_cast<std::int8_t>(host_slot);
   host_cam_ = static_cast<std::int8_t>(host_cam);
   target_slot_ = static_cast<std::int8_t>(target_slot);
@@ -144,7 +139,9 @@ bool BearingResidual::evaluate_cached(const double* const* parameters, double* r
   const bool want_h = jacobians[0].wanted(), want_t = jacobians[1].wanted();
   if (want_h || want_t) {
     const Eigen::Matrix<double, 2, 3> DR = D * c.R_ct_w;
-    if (want_h) {
+    if (want_h && jacobians[0].point) {
+      solver::jacobian_map<2, 3>(jacobians[0]) = DR;
+    } else if (want_h) {
       const Eigen::Vector3d P_bh = c.R_b_ch * P_ch + c.p_b_ch;
       auto J = solver::jacobian_map<2, 6>(jacobians[0]);
       J.leftCols<3>() = DR;
@@ -157,6 +154,29 @@ bool BearingResidual::evaluate_cached(const double* const* parameters, double* r
       J.rightCols<3>() = times_hat(D * c.R_b_ct.transpose(), P_bt);
     }
   }
+  if (jacobians[k_rho].wanted())
+    solver::jacobian_map<2, 1>(jacobians[k_rho]) = D * (c.R_ct_ch * (-P_ch * inv_rho));
+  if (has_td_) write_td_jacobian(D, c.R_ct_ch, inv_rho, jacobians);
+  return true;
+}
+
+// The stereo pair of the host frame from the cache's camera pair: only rho (and td) can be wanted
+// here, the extrinsics' Jacobians take evaluate()'s own path.
+bool BearingResidual::evaluate_same_frame_cached(const double* const* parameters, double* residuals,
+                                                 const solver::JacobianView* jacobians) const {
+  const int k_rho = rho_block();
+  const double rho = parameters[k_rho][0];
+  if (!(rho > 1e-6) || !std::isfinite(rho)) return false;
+  const RelativePoseCache::CameraPair& c = cache_->camera_pair(host_cam_, target_cam_);
+  Eigen::Vector3d b_h, b_t;
+  shifted_bearings(parameters, &b_h, &b_t);
+  const double inv_rho = 1.0 / rho;
+  const Eigen::Vector3d P_ch = b_h * inv_rho;
+  const Eigen::Vector3d P_ct = c.R_ct_ch * P_ch + c.p_ct_ch;
+  const bool any = jacobians != nullptr && (jacobians[k_rho].wanted() || (has_td_ && jacobians[k_rho + 1].wanted()));
+  Eigen::Matrix<double, 2, 3> D;
+  if (!project(P_ct, b_t, residuals, any ? &D : nullptr)) return false;
+  if (!any) return true;
   if (jacobians[k_rho].wanted())
     solver::jacobian_map<2, 1>(jacobians[k_rho]) = D * (c.R_ct_ch * (-P_ch * inv_rho));
   if (has_td_) write_td_jacobian(D, c.R_ct_ch, inv_rho, jacobians);
@@ -198,7 +218,9 @@ void write_jacobians(const Chain& c, const solver::JacobianView* jacobians) {
     R_ct_w = R_ct_bt * c.pose_t.R.transpose();
     if (want_h || want_eh || want_rho) M = R_ct_w * c.pose_h.R;
   }
-  if (want_h) {
+  if (want_h && jacobians[0].point) {
+    solver::jacobian_map<2, 3>(jacobians[0]) = c.D * R_ct_w;
+  } else if (want_h) {
     Eigen::Matrix<double, 3, 6> d;
     d.leftCols<3>() = R_ct_w;
     d.rightCols<3>() = -M * so3::hat(c.P_bh);
@@ -235,17 +257,29 @@ void write_jacobians(const Chain& c, const solver::JacobianView* jacobians) {
 
 bool BearingResidual::evaluate(const double* const* parameters, double* residuals,
                                const solver::JacobianView* jacobians) const {
-  Chain c;
-  c.two_frames = kind_ == Kind::kTwoFrames;
-  c.k_ext_h = c.two_frames ? 2 : 0;
-  c.k_ext_t = c.two_frames ? (same_camera_ ? 2 : 3) : 1;
-  c.k_rho = rho_block();
-  if (cache_ != nullptr && parameters[0] == cache_->frame(host_slot_) &&
-      parameters[1] == cache_->frame(target_slot_) && parameters[c.k_ext_h] == cache_->extrinsic(host_cam_) &&
-      parameters[c.k_ext_t] == cache_->extrinsic(target_cam_) &&
-      (jacobians == nullptr || (!jacobians[c.k_ext_h].wanted() && !jacobians[c.k_ext_t].wanted()))) {
-    return evaluate_cached(parameters, residuals, jacobians);
+  const bool two_frames = kind_ == Kind::kTwoFrames;
+  const int k_ext_h = two_frames ? 2 : 0;
+  const int k_ext_t = two_frames ? (same_camera_ ? 2 : 3) : 1;
+  // Nearly every evaluation takes a cached path: decided before the chain's storage is set up.
+  if (cache_ != nullptr && parameters[k_ext_h] == cache_->extrinsic(host_cam_) &&
+      parameters[k_ext_t] == cache_->extrinsic(target_cam_) &&
+      (jacobians == nullptr || (!jacobians[k_ext_h].wanted() && !jacobians[k_ext_t].wanted()))) {
+    if (!two_frames) return evaluate_same_frame_cached(parameters, residuals, jacobians);
+    if (parameters[0] == cache_->frame(host_slot_) && parameters[1] == cache_->frame(target_slot_))
+      return evaluate_cached(parameters, residuals, jacobians);
   }
+  return evaluate_uncached(parameters, residuals, jacobians);
+}
+
+// The chain from the blocks' own values: extrinsics' Jacobians, or parameters the cache does not hold.
+bool BearingResidual::evaluate_uncached(const double* const* parameters, double* residuals,
+                                        const solver::JacobianView* jacobians) const {
+  const bool two_frames = kind_ == Kind::kTwoFrames;
+  Chain c;
+  c.two_frames = two_frames;
+  c.k_ext_h = two_frames ? 2 : 0;
+  c.k_ext_t = two_frames ? (same_camera_ ? 2 : 3) : 1;
+  c.k_rho = rho_block();
 
   c.rho = parameters[c.k_rho][0];
   if (!(c.rho > 1e-6) || !std::isfinite(c.rho)) return false;

@@ -41,7 +41,8 @@ class BearingResidual final : public solver::ResidualFunction {
   void set(Kind kind, bool same_camera, const Eigen::Vector3d& b_host, const Eigen::Vector3d& b_target,
            double weight);
   // Optional, after set() (which unbinds): a kTwoFrames residual whose pose blocks are the cache's
-  // frame slots and extrinsics takes the shared products from it. Evaluation at other blocks, and
+  // frame slots and extrinsics takes the shared products from it (a kSameFrame one its
+  // extrinsics' pair, the slots unused). Evaluation at other blocks, and
   // Jacobians with respect to the extrinsics, use the residual's own products: results agree to
   // rounding either way. The cache must be invalidated when blocks move (a solver with the cache as
   // its evaluation callback does it); it is written during evaluate(): one solve at a time.
@@ -52,6 +53,9 @@ class BearingResidual final : public solver::ResidualFunction {
                        double td_applied_target_s);
 
   int num_residuals() const override { return 2; }
+  // The point is the landmark in the world, P_w (BearingLift gives d P_w / d (host pose, rho)):
+  // with jacobians[0].point, d r / d P_w (2 x 3) is written there instead of d r / d pose_h.
+  bool supports_point_jacobian() const override { return true; }
   int num_blocks() const { return num_blocks_; }
   bool evaluate(const double* const* parameters, double* residuals,
                 const solver::JacobianView* jacobians) const override;
@@ -59,9 +63,16 @@ class BearingResidual final : public solver::ResidualFunction {
   // Angle-like error (rad, unwhitened) at the given parameters; false behind the camera.
   bool error_rad(const double* const* parameters, double* error) const;
 
+  // v / |v| with one division, as set() normalizes the bearings (v unchanged when zero).
+  static Eigen::Vector3d unit(const Eigen::Vector3d& v);
+
  private:
   bool evaluate_cached(const double* const* parameters, double* residuals,
                        const solver::JacobianView* jacobians) const;
+  bool evaluate_uncached(const double* const* parameters, double* residuals,
+                         const solver::JacobianView* jacobians) const;
+  bool evaluate_same_frame_cached(const double* const* parameters, double* residuals,
+                                  const solver::JacobianView* jacobians) const;
   bool project(const Eigen::Vector3d& P_ct, const Eigen::Vector3d& b_target, double* residuals,
                Eigen::Matrix<double, 2, 3>* D) const;
   int rho_block() const { return num_blocks_ - 1 - static_cast<int>(has_td_); }

@@ -27,6 +27,7 @@ ProblemBuilder::ProblemBuilder(const ProblemBuilderOptions& options, Window* win
       problem_(std::make_unique<solver::Problem>()),
       pose_cache_(std::make_unique<RelativePoseCache>()),
       visual_(new BearingResidual[kMaxVisualResiduals]),
+      lifts_(new BearingLift[capacity::kMaxLandmarks]),
       chosen_(new int[capacity::kMaxLandmarks]),
       edge_res_(new EdgeResiduals[capacity::kMaxLandmarks]),
       block_of_landmark_(new int[capacity::kMaxLandmarks]),
@@ -157,7 +158,17 @@ void ProblemBuilder::add_landmarks(std::uint8_t groups) {
     er.begin = problem_->num_residuals();
     er.whole = add_landmark_edges(idx, lm_id);
     er.end = problem_->num_residuals();
+    set_lift(l, lm_id, n_selected_ - 1);
   }
+}
+
+// The landmark's residuals see its host pose and inverse depth through its world point
+// (bearing_lift.hpp); with a time offset the host bearing moves with td: no lift then.
+void ProblemBuilder::set_lift(const Landmark& l, int lm_block, int k) {
+  if (edge_td_.on) return;
+  lifts_[k].set(l.b_host);
+  const solver::BlockId ext = ext_id_[l.host_cam];
+  problem_->set_point_lift(&lifts_[k], pose_id_[l.host_slot], lm_block, &ext, 1);
 }
 
 int ProblemBuilder::block_id(const EdgeBlock& b, int lm_block) const {

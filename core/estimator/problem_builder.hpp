@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <memory>
 
+#include "core/estimator/bearing_lift.hpp"
 #include "core/estimator/bearing_residual.hpp"
 #include "core/estimator/block_table.hpp"
 #include "core/estimator/frame_id.hpp"
@@ -129,6 +130,7 @@ class ProblemBuilder {
   // The request's matches whose landmarks qualify (see set_relocation), as match indices.
   int relocation_candidates(int* match_of) const;
   int block_id(const EdgeBlock& b, int lm_block) const;
+  void set_lift(const Landmark& l, int lm_block, int k);
 
   ProblemBuilderOptions options_;
   Window* window_;
@@ -139,6 +141,7 @@ class ProblemBuilder {
   std::unique_ptr<RelativePoseCache> pose_cache_;
   std::unique_ptr<BearingResidual[]> visual_;
   int n_visual_ = 0;
+  std::unique_ptr<BearingLift[]> lifts_;  // by position in chosen_
   std::unique_ptr<int[]> chosen_;              // pool indices of the landmarks in the problem
   std::unique_ptr<EdgeResiduals[]> edge_res_;  // by position in chosen_
   std::unique_ptr<int[]> block_of_landmark_;   // by pool index

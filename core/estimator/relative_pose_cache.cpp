@@ -50,4 +50,15 @@ const RelativePoseCache::Pair& RelativePoseCache::form(Entry& e, int host_slot, 
   return c;
 }
 
+const RelativePoseCache::CameraPair& RelativePoseCache::form_cameras(CameraEntry& e, int host_cam, int target_cam) {
+  Source& eh = ext_[host_cam];
+  Source& et = ext_[target_cam];
+  refresh(eh);
+  refresh(et);
+  e.pair.R_ct_ch.noalias() = et.R.transpose() * eh.R;
+  e.pair.p_ct_ch.noalias() = et.R.transpose() * (eh.p - et.p);
+  e.epoch = epoch_;
+  return e.pair;
+}
+
 }  // namespace ums

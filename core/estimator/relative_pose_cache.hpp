@@ -56,6 +56,17 @@ class RelativePoseCache final : public solver::EvaluationCallback {
     return e.epoch == epoch_ ? e.pair : form(e, host_slot, host_cam, target_slot, target_cam);
   }
 
+  // The stereo pair of one frame (host camera ch, target camera ct): the extrinsics alone,
+  // R_ct_ch = R_b_ct^T R_b_ch and p_ct_ch = R_b_ct^T (p_b_ch - p_b_ct); the body pose cancels.
+  struct CameraPair {
+    Eigen::Matrix3d R_ct_ch;
+    Eigen::Vector3d p_ct_ch;  // m
+  };
+  const CameraPair& camera_pair(int host_cam, int target_cam) {
+    CameraEntry& e = camera_entries_[host_cam][target_cam];
+    return e.epoch == epoch_ ? e.pair : form_cameras(e, host_cam, target_cam);
+  }
+
  private:
   struct Source {
     const double* values = nullptr;
@@ -67,13 +78,19 @@ class RelativePoseCache final : public solver::EvaluationCallback {
     std::uint64_t epoch = 0;  // the pair is valid when it equals epoch_
     Pair pair;
   };
+  struct CameraEntry {
+    std::uint64_t epoch = 0;
+    CameraPair pair;
+  };
   void refresh(Source& s);
   const Pair& form(Entry& e, int host_slot, int host_cam, int target_slot, int target_cam);
+  const CameraPair& form_cameras(CameraEntry& e, int host_cam, int target_cam);
 
   std::uint64_t epoch_ = 1;
   Source frame_[kMaxFrames];
   Source ext_[kCameras];
   Entry entries_[kMaxFrames][kMaxFrames][kCameras][kCameras];
+  CameraEntry camera_entries_[kCameras][kCameras];
 };
 
 }  // namespace ums

@@ -19,6 +19,7 @@ int setup_visual_edge(const Landmark& l, const VisualEdge& e, double w, Relative
   int nb = 0;
   if (o.slot == h) {
     r->set(BearingResidual::Kind::kSameFrame, false, l.b_host, e.b, w);
+    if (cache != nullptr) r->bind(cache, h, l.host_cam, h, e.cam);
     blocks[nb++] = EdgeBlock{EdgeBlock::kExtrinsic, l.host_cam};
     blocks[nb++] = EdgeBlock{EdgeBlock::kExtrinsic, e.cam};
   } else {

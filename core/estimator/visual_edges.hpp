@@ -55,8 +55,8 @@ void for_each_visual_edge(const Landmark& l, Visitor&& visit) {
   }
 }
 
-// Sets r up for edge e of landmark l with whitening weight w (1/rad; cache: optional, for
-// two-frame edges) and writes the blocks it reads (at most kMaxEdgeBlocks), in the residual's
+// Sets r up for edge e of landmark l with whitening weight w (1/rad; cache: optional, shared
+// products for every edge) and writes the blocks it reads (at most kMaxEdgeBlocks), in the residual's
 // order; returns their count. With td.on the edge also reads the time offset (last).
 int setup_visual_edge(const Landmark& l, const VisualEdge& e, double w, RelativePoseCache* cache,
                       BearingResidual* r, EdgeBlock* blocks, const EdgeTimeOffset& td = {});

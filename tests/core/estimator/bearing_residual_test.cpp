@@ -146,6 +146,38 @@ TEST_CASE("bearing residual bound to the pose cache: same values and Jacobians, 
   }
 }
 
+TEST_CASE("bearing residual of the host frame's stereo pair bound to the cache: same values, follows moved extrinsics",
+          "[estimator]") {
+  Scene s;
+  const double w = 460.0 / 1.5;
+  auto cache = std::make_unique<ums::RelativePoseCache>();
+  cache->bind_extrinsic(0, s.ext0);
+  cache->bind_extrinsic(1, s.ext1);
+  const Eigen::Vector3d noisy = (s.truth(true, s.ext1) + Eigen::Vector3d(0.01, 0.01, -0.02)).normalized();
+  ums::BearingResidual plain, bound;
+  plain.set(ums::BearingResidual::Kind::kSameFrame, false, s.b_host, noisy, w);
+  bound.set(ums::BearingResidual::Kind::kSameFrame, false, s.b_host, noisy, w);
+  bound.bind(cache.get(), 3, 0, 3, 1);
+  const double* p[] = {s.ext0, s.ext1, &s.rho};
+  for (int round = 0; round < 2; ++round) {
+    double jp[2] = {}, jb[2] = {}, rp[2], rb[2];
+    ums::solver::JacobianView vp[3] = {{}, {}, {jp, 1}}, vb[3] = {{}, {}, {jb, 1}};
+    REQUIRE(plain.evaluate(p, rp, vp));
+    REQUIRE(bound.evaluate(p, rb, vb));
+    CHECK(std::hypot(rp[0] - rb[0], rp[1] - rb[1]) < 1e-9);
+    CHECK(std::hypot(jp[0] - jb[0], jp[1] - jb[1]) < 1e-8 * std::hypot(jp[0], jp[1]));
+    CHECK(std::hypot(jp[0], jp[1]) > 1.0);
+    // An estimated extrinsic moves in place; the solver's callback invalidates the cache.
+    s.ext1[0] += 0.01;
+    cache->prepare_for_evaluation();
+    if (round == 0) {
+      double moved[2];
+      REQUIRE(plain.evaluate(p, moved, nullptr));
+      CHECK(std::hypot(moved[0] - rp[0], moved[1] - rp[1]) > 0.1);
+    }
+  }
+}
+
 TEST_CASE("bearing residual with a time offset: bearings moved along their velocities, zero at the true offset",
           "[estimator][td]") {
   Scene s;
