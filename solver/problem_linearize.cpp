@@ -59,8 +59,10 @@ bool Problem::evaluate_residual(const Residual& rb, bool jacobians, double* r, d
   if (!rb.fn->evaluate(rb.params, r, jv)) return false;
   const int rows = rb.rows;
   if (keep != nullptr) std::copy(r, r + rows, keep);
-  double sq = 0.0;
-  for (int i = 0; i < rows; ++i) sq += r[i] * r[i];
+  // Two rows (the reprojections): the loop's sum, (0 + r0^2) + r1^2, without the loop.
+  double sq = rows == 2 ? r[0] * r[0] + r[1] * r[1] : 0.0;
+  if (rows != 2)
+    for (int i = 0; i < rows; ++i) sq += r[i] * r[i];
   if (!std::isfinite(sq)) return false;
   // Non-finite Jacobians are caught once per linearization (NaN/Inf propagate into H, b, V).
   if (rb.loss.type == LossType::kTrivial) {
