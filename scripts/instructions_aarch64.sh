@@ -78,9 +78,13 @@ Suites: bookworm bookworm-updates
 Components: main
 Signed-By: /usr/share/keyrings/debian-archive-keyring.gpg
 EOF
-    "${sudo_cmd[@]}" apt-get update -qq
+    # A mirror mid-sync can fail the update for an index this script does not need (2026-12-05:
+    # bookworm-security's armhf list); the source package may still be reachable.
+    "${sudo_cmd[@]}" apt-get update -qq ||
+      echo "instructions_aarch64: warning: apt-get update failed; fetching the qemu source package anyway" >&2
   fi
-  (cd "$work" && apt-get source --download-only -qq qemu >/dev/null 2>&1)
+  (cd "$work" && apt-get source --download-only -qq qemu >/dev/null 2>&1) ||
+    { echo "instructions_aarch64: cannot download Debian's qemu source package (deb-src entry, network?)" >&2; exit 1; }
   local orig
   orig=$(ls "$work"/qemu_*.orig.tar.* | head -n 1)
   tar -xf "$orig" -C "$work" --wildcards '*/include/qemu/qemu-plugin.h'
