@@ -44,5 +44,9 @@ function(ums_add_test name)
   if(UMS_TEST_SPEC)
     set(spec TEST_SPEC "${UMS_TEST_SPEC}")
   endif()
-  catch_discover_tests(${name} ${spec} TEST_PREFIX "${name}:" PROPERTIES TIMEOUT ${UMS_TEST_TIMEOUT_S})
+  # --warn NoTests: a ctest entry whose name matches no TEST_CASE fails instead of passing empty.
+  # Catch2's discovery reads the names into a CMake list, so a ';' in a name split it into two
+  # entries that matched nothing and "passed" (30 test cases ran in no ctest until 2026-12-05).
+  catch_discover_tests(${name} ${spec} TEST_PREFIX "${name}:" EXTRA_ARGS --warn NoTests
+                       PROPERTIES TIMEOUT ${UMS_TEST_TIMEOUT_S})
 endfunction()

@@ -117,7 +117,7 @@ TEST_CASE("Point-lifted landmarks: the marginal prior equals the plain lineariza
   CHECK((prior_lifted->information() - prior_plain->information()).cwiseAbs().maxCoeff() <= 1e-9 * scale);
 }
 
-TEST_CASE("Point-lifted landmarks: a wrong lift moves the solution; a constant host is not lifted",
+TEST_CASE("Point-lifted landmarks: a wrong lift moves the solution, a constant host is not lifted",
           "[solver][problem][lift]") {
   Solved plain = solve_window(false, 10);
   REQUIRE(plain.summary.successful_steps > 0);
@@ -142,7 +142,7 @@ TEST_CASE("Point-lifted landmarks: a wrong lift moves the solution; a constant h
   }
 }
 
-TEST_CASE("Point-lifted landmarks: bad declarations are refused; passes allocate nothing",
+TEST_CASE("Point-lifted landmarks: bad declarations are refused, passes allocate nothing",
           "[solver][problem][lift]") {
   auto w = bench::make_vio_window(window(false));
   auto problem = std::make_unique<Problem>();

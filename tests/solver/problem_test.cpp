@@ -232,7 +232,7 @@ class PointResidual final : public ResidualFunction {
   double m_[2];
 };
 
-TEST_CASE("Reduced ordering: blocks seen by landmarks first, in declaration order; the IMU chain newest first",
+TEST_CASE("Reduced ordering: blocks seen by landmarks first, in declaration order, the IMU chain newest first",
           "[solver][problem]") {
   // add_to_problem declares poses, then speed-biases, then the extrinsic: the extrinsic (observed
   // through every reprojection) must come right after the variable poses, so a landmark's
@@ -814,7 +814,7 @@ TEST_CASE("After rejected steps the kept residual is the returned iterate's", "[
   }
 }
 
-TEST_CASE("A solve that fails keeps no residuals; one over constant blocks is not kept", "[solver][problem]") {
+TEST_CASE("A solve that fails keeps no residuals, one over constant blocks is not kept", "[solver][problem]") {
   auto problem = std::make_unique<Problem>();
   PointResidual m(1.0, 2.0);
   double x[2] = {0.0, 0.0}, y[2] = {0.0, 0.0};

@@ -233,7 +233,7 @@ TEST_CASE("the back end's weights are keys of their own", "[config]") {
   CHECK(d.max_speed_m_s > 25.0 / 3.6 * 2.0);
 }
 
-TEST_CASE("body_T_vehicle sets the MAVLink mount; a matrix that is no rotation is refused", "[config]") {
+TEST_CASE("body_T_vehicle sets the MAVLink mount, a matrix that is no rotation is refused", "[config]") {
   const std::string mount = "body_T_vehicle: !!opencv-matrix\n   rows: 4\n   cols: 4\n   dt: d\n"
                             "   data: [ 0.0, 1.0, 0.0, 0.1,\n           0.0, 0.0, 1.0, 0.0,\n"
                             "           1.0, 0.0, 0.0, 0.0,\n           0.0, 0.0, 0.0, 1.0 ]\n";

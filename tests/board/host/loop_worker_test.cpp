@@ -123,7 +123,7 @@ TEST_CASE("LoopWorker: every keyframe reaches the loop thread in order when the 
   CHECK(st.max_depth == capacity::kLoopQueue);
 }
 
-TEST_CASE("LoopWorker: a live run's frame thread never waits; what the busy thread cannot take is counted", "[loop]") {
+TEST_CASE("LoopWorker: a live run's frame thread never waits, what the busy thread cannot take is counted", "[loop]") {
   FakeSteps steps(true);
   LoopWorker worker(steps, steps, QueueFull::kDrop);
   worker.on_keyframe(keyframe(1));
@@ -184,7 +184,7 @@ TEST_CASE("LoopWorker: relocation requests reach the frame thread, their results
   CHECK(steps.relocated() == std::vector<FrameId>{6});
 }
 
-TEST_CASE("LoopWorker: images are described on the caller's thread; handing keyframes over allocates nothing", "[loop]") {
+TEST_CASE("LoopWorker: images are described on the caller's thread, handing keyframes over allocates nothing", "[loop]") {
   FakeSteps steps(false);
   LoopWorker worker(steps, steps, QueueFull::kWait);
   const MarginalizedKeyframe k = keyframe(7);

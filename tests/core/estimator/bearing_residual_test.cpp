@@ -71,7 +71,7 @@ TEST_CASE("bearing residual is zero at the truth and its Jacobians match central
   }
 }
 
-TEST_CASE("bearing residual: 1 px of image error is 1 / sigma after whitening; behind the camera is refused", "[estimator]") {
+TEST_CASE("bearing residual: 1 px of image error is 1 / sigma after whitening, behind the camera is refused", "[estimator]") {
   Scene s;
   const double f_px = 460.0, sigma_px = 1.5;
   const Eigen::Vector3d b = s.truth(false, s.ext0);

@@ -91,7 +91,7 @@ TEST_CASE("LandmarkMap: rehosting on the measured ray inherits the new host's po
   }
 }
 
-TEST_CASE("LandmarkMap: a full pool refuses new features and counts them; freed slots are reused", "[estimator][landmarks]") {
+TEST_CASE("LandmarkMap: a full pool refuses new features and counts them, freed slots are reused", "[estimator][landmarks]") {
   Scene s;
   ums::LandmarkMap map{ums::LandmarkMapOptions()};
   const int cap = ums::LandmarkMap::kCapacity;

@@ -4,7 +4,7 @@
 
 using namespace ums::loop;
 
-TEST_CASE("bow_add keeps words sorted and sums repeats; L1 score is 1 for equal, 0 for disjoint", "[loop]") {
+TEST_CASE("bow_add keeps words sorted and sums repeats, L1 score is 1 for equal, 0 for disjoint", "[loop]") {
   BowVector a;
   REQUIRE(bow_add(&a, 7, 1.0f) == ums::Status::kOk);
   REQUIRE(bow_add(&a, 3, 1.0f) == ums::Status::kOk);

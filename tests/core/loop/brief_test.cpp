@@ -106,7 +106,7 @@ TEST_CASE("BRIEF on a micro frame seen again turned by 3 deg, shifted and noisie
   CHECK(other / n_other > 90.0);   // about half the bits for unrelated patches
 }
 
-TEST_CASE("BRIEF: a brightness offset changes no bit; the border is refused", "[loop]") {
+TEST_CASE("BRIEF: a brightness offset changes no bit, the border is refused", "[loop]") {
   const cv::Mat img = load(micro_images()[10]);
   cv::Mat brighter;
   img.convertTo(brighter, CV_8UC1, 1.0, 20.0);

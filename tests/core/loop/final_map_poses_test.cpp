@@ -86,7 +86,7 @@ TEST_CASE("FinalMapPoses: the yaw correction interpolates across +-180 deg the s
   CHECK(std::abs(std::abs(quat::yaw(T_map_b.linear())) - M_PI) < 1e-9);
 }
 
-TEST_CASE("FinalMapPoses: the odometry's roll and pitch are kept; the correction is a yaw and a translation", "[loop]") {
+TEST_CASE("FinalMapPoses: the odometry's roll and pitch are kept, the correction is a yaw and a translation", "[loop]") {
   KeyframeDatabase db(4);
   // A map pose tilted 0.5 deg against the odometry (a loop's roll error): not passed on.
   std::uint32_t slot = 0;

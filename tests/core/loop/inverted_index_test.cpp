@@ -18,7 +18,7 @@ BowVector bow(std::initializer_list<std::pair<std::uint32_t, float>> words) {
 
 }  // namespace
 
-TEST_CASE("InvertedIndex: the query's scores equal bow_score, best first; excluded slots never returned", "[loop]") {
+TEST_CASE("InvertedIndex: the query's scores equal bow_score, best first, excluded slots never returned", "[loop]") {
   InvertedIndex index(100);
   const BowVector a = bow({{1, 1}, {2, 1}, {3, 2}});
   const BowVector b = bow({{3, 1}, {4, 1}});
@@ -45,7 +45,7 @@ TEST_CASE("InvertedIndex: the query's scores equal bow_score, best first; exclud
   CHECK(hits[0].score == Approx(1.0));
 }
 
-TEST_CASE("InvertedIndex: removal frees the postings for reuse; bad slots and words refused", "[loop]") {
+TEST_CASE("InvertedIndex: removal frees the postings for reuse, bad slots and words refused", "[loop]") {
   InvertedIndex index(10);
   const BowVector a = bow({{1, 1}, {2, 1}});
   REQUIRE(index.add(0, a) == Status::kOk);

@@ -56,7 +56,7 @@ FrameId picked_id(const KeyframeDatabase& db) {
 
 }  // namespace
 
-TEST_CASE("KeyframeDatabase: commit links records oldest to newest; remove relinks; slots are reused", "[loop]") {
+TEST_CASE("KeyframeDatabase: commit links records oldest to newest, remove relinks, slots are reused", "[loop]") {
   KeyframeDatabase db(2);
   CHECK(db.size() == 0);
   CHECK(db.oldest() == -1);
@@ -115,7 +115,7 @@ TEST_CASE("KeyframeDatabase: commit links records oldest to newest; remove relin
   CHECK(db.newest() == -1);
 }
 
-TEST_CASE("KeyframeDatabase: full at kMaxKeyframes; reserve says kFull until a record is removed", "[loop]") {
+TEST_CASE("KeyframeDatabase: full at kMaxKeyframes, reserve says kFull until a record is removed", "[loop]") {
   KeyframeDatabase db(60);
   std::vector<std::uint32_t> slots;
   for (std::size_t i = 0; i < capacity::kMaxKeyframes; ++i) {

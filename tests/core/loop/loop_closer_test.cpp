@@ -565,7 +565,7 @@ TEST_CASE("LoopCloser: the blind stretch is corrected in the shape of dead recko
   CHECK(growing_m < 0.5 * flat_m);
 }
 
-TEST_CASE("LoopCloser: a circle back to walls never seen closes no loop; every candidate's rejection is counted", "[loop]") {
+TEST_CASE("LoopCloser: a circle back to walls never seen closes no loop, every candidate's rejection is counted", "[loop]") {
   const auto flight = circle_flight(false, 10);
   LoopCloser closer(LoopOptions{}, make_rig(), vocabulary());
   for (const auto& k : flight->keyframes) feed(&closer, *k);
@@ -733,7 +733,7 @@ TEST_CASE("LoopCloser: a full database makes room by decimation, allocating noth
 }
 
 
-TEST_CASE("LoopCloser: an accepted loop asks the window to measure it again; the loop edge takes the blend", "[loop][relocation]") {
+TEST_CASE("LoopCloser: an accepted loop asks the window to measure it again, the loop edge takes the blend", "[loop][relocation]") {
   const auto flight = circle_flight(true, 1);
   LoopCloser closer(LoopOptions{}, make_rig(), vocabulary());
   for (const auto& k : flight->keyframes) feed(&closer, *k);

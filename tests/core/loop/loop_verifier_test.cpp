@@ -279,7 +279,7 @@ TEST_CASE("LoopVerifier: a different place (unrelated descriptors) is refused", 
   CHECK_FALSE(ok);
 }
 
-TEST_CASE("LoopVerifier: ten points are too few to try; the matches are still counted", "[loop]") {
+TEST_CASE("LoopVerifier: ten points are too few to try, the matches are still counted", "[loop]") {
   SceneSpec spec;
   spec.points = 10;
   spec.distractors = 0;

@@ -341,7 +341,7 @@ TEST_CASE("PoseGraph4Dof: block-Jacobi PCG reaches the same solution with >5x (m
   CHECK(s_jacobi.cg_iterations > 5 * s_chain.cg_iterations);
 }
 
-TEST_CASE("PoseGraph4Dof: kFull over capacity; bad indices and inputs refused", "[loop]") {
+TEST_CASE("PoseGraph4Dof: kFull over capacity, bad indices and inputs refused", "[loop]") {
   PoseGraph4Dof g;
   int index = -1;
   for (int k = 0; k < PoseGraph4Dof::kMaxNodes; ++k) {

@@ -44,7 +44,7 @@ std::vector<std::vector<Descriptor>> places(int n_places, std::uint64_t seed, st
 
 }  // namespace
 
-TEST_CASE("Vocabulary: noisy views of a place land on that place's words; other places score low", "[loop]") {
+TEST_CASE("Vocabulary: noisy views of a place land on that place's words, other places score low", "[loop]") {
   std::vector<std::vector<Descriptor>> truth;
   const auto images = places(60, 42, &truth);
   VocabularyParams p;
@@ -77,7 +77,7 @@ TEST_CASE("Vocabulary: noisy views of a place land on that place's words; other 
   CHECK(other_score / 60 < 0.1);
 }
 
-TEST_CASE("Vocabulary: bytes round trip; corrupt, truncated, foreign and over-capacity files refused", "[loop]") {
+TEST_CASE("Vocabulary: bytes round trip, corrupt, truncated, foreign and over-capacity files refused", "[loop]") {
   std::vector<std::vector<Descriptor>> truth;
   const auto images = places(10, 3, &truth);
   VocabularyParams p;

@@ -51,7 +51,7 @@ TEST_CASE("remove_yaw keeps roll and pitch and zeroes yaw", "[math][quat]") {
   CHECK((R0.transpose() * Vector3d::UnitZ() - R.transpose() * Vector3d::UnitZ()).norm() < 1e-14);
 }
 
-TEST_CASE("wrap_angle_rad maps any angle into (-pi, pi] without changing its direction", "[math][quat]") {
+TEST_CASE("wrap_angle_rad maps any angle into -pi < a <= pi without changing its direction", "[math][quat]") {
   CHECK(quat::wrap_angle_rad(0.25) == 0.25);
   CHECK(std::abs(quat::wrap_angle_rad(0.25 + 6.0 * M_PI) - 0.25) < 1e-12);
   CHECK(std::abs(quat::wrap_angle_rad(-3.0 * M_PI / 2.0) - M_PI / 2.0) < 1e-12);

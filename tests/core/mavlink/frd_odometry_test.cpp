@@ -56,7 +56,7 @@ Eigen::Matrix3d about(const Eigen::Vector3d& axis, double deg) {
 
 }  // namespace
 
-TEST_CASE("FRD: moving forward, right and up reads +x, +y and -z; velocities in the vehicle's axes", "[mavlink]") {
+TEST_CASE("FRD: moving forward, right and up reads +x, +y and -z, velocities in the vehicle's axes", "[mavlink]") {
   FrdConverter frd(forward_d455());
   Odometry m;
   frd.convert(state_of(facing_plus_y(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()), &m);
@@ -104,7 +104,7 @@ TEST_CASE("FRD: turning right, rolling right and pitching up read as positive ya
   CHECK(e.yaw_deg == Approx(0.0).margin(1e-4));
 }
 
-TEST_CASE("FRD: body rates are turned into the vehicle's axes; unknown rates stay NaN", "[mavlink]") {
+TEST_CASE("FRD: body rates are turned into the vehicle's axes, unknown rates stay NaN", "[mavlink]") {
   FrdConverter frd(forward_d455());
   Odometry m;
   BodyState s = state_of(facing_plus_y(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero());

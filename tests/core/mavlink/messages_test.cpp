@@ -54,7 +54,7 @@ TEST_CASE("CRC_EXTRA of each message follows from its field list", "[mavlink]") 
   CHECK(crc_extra_of("TIMESYNC", {{"int64_t", "tc1"}, {"int64_t", "ts1"}}) == kTimesync.crc_extra);
 }
 
-TEST_CASE("ODOMETRY puts each field at its wire offset; unknown covariances start with NaN", "[mavlink]") {
+TEST_CASE("ODOMETRY puts each field at its wire offset, unknown covariances start with NaN", "[mavlink]") {
   Odometry m;
   m.time_usec = 123456789;
   m.x = 1.5f;

@@ -88,7 +88,7 @@ TEST_CASE("TimeAligner: no offset passes everything through as it came", "[pipel
   CHECK(aligner.counters().frames_held == 0);
 }
 
-TEST_CASE("TimeAligner: a camera 12 ms early waits for the IMU; its frames keep their pixels", "[pipeline]") {
+TEST_CASE("TimeAligner: a camera 12 ms early waits for the IMU, its frames keep their pixels", "[pipeline]") {
   TimeAligner aligner(12 * kMs, 8, 4);
   const Recorder r = run(&aligner, 12 * kMs);
   check_order(r);

@@ -135,7 +135,7 @@ TEST_CASE("faults: frame gap, random drops (seeded), duplicates and the end of t
   CHECK(count(end, false, 3000 * kMs, INT64_MAX) == 401);  // the IMU goes on
 }
 
-TEST_CASE("faults: a frozen camera repeats the last image before the fault; blackout and a lost right camera",
+TEST_CASE("faults: a frozen camera repeats the last image before the fault, blackout and a lost right camera",
           "[replay][faults]") {
   const Recorder r = run({"frame-freeze:1:0.5", "blackout:3:0.2", "right-lost:2:0.1"});
   for (const Item& it : r.items) {

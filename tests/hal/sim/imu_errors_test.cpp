@@ -217,7 +217,7 @@ TEST_CASE("imu errors: deterministic per seed, seeds differ", "[sim][imu_errors]
   for (std::size_t i = 0; i < t1.samples.size(); ++i) CHECK(t1.samples[i].accel_m_s2 == t2.samples[i].accel_m_s2);
 }
 
-TEST_CASE("imu model: realistic = ideal's samples with the errors applied; truth poses unchanged; ideal ignores "
+TEST_CASE("imu model: realistic = ideal's samples with the errors applied, truth poses unchanged, ideal ignores "
           "the error settings", "[sim][imu_errors]") {
   for (const SimStyle style : {SimStyle::kProcedural, SimStyle::kPhoto}) {
     SimOptions o;
@@ -255,7 +255,7 @@ TEST_CASE("imu model: realistic = ideal's samples with the errors applied; truth
   }
 }
 
-TEST_CASE("imu model: sim_events.csv records the settings and the drawn values; unknown names rejected",
+TEST_CASE("imu model: sim_events.csv records the settings and the drawn values, unknown names rejected",
           "[sim][imu_errors]") {
   ImuModel m = ImuModel::kIdeal;
   CHECK(parse_imu_model("realistic", &m));

@@ -245,7 +245,7 @@ TEST_CASE("same seed gives the same dataset and the right camera is blank during
 // run, and sim_events.csv names that span. Test-sized: the built-in trajectory cut to 1.2 s
 // (middle 0.6 s), 1 s of blackout, frames at 5 Hz so the span's ends fall between frames: frame
 // 0 (0 s) lit, 1-5 (0.2-1.0 s) black, 6 (1.2 s) lit again.
-TEST_CASE("blackout: both cameras black for exactly blackout_s around the middle; blackout_s > 0 enforced",
+TEST_CASE("blackout: both cameras black for exactly blackout_s around the middle, blackout_s > 0 enforced",
           "[sim][scenario]") {
   CHECK(SimOptions{}.blackout_s == 2.0);
   const std::string root = ums::test::make_temp_dir("sim_blackout");
