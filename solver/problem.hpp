@@ -192,7 +192,8 @@ class Problem {
   bool evaluate_residual(const Residual& rb, bool jacobians, double* r, double* cost, double* keep = nullptr);
   void accumulate_residual(int res_index, const double* r);
   void accumulate_two_row(const Residual& rb, const double* r);
-  // Point-lifted landmarks (problem_linearize.cpp): a landmark's sums start, each residual adds
+  void add_blocks_2x6(const Residual& rb, int a, const double* r, int skip);
+  // Point-lifted landmarks (problem_lift.cpp): a landmark's sums start, each residual adds
   // A^T A, A^T r, A^T J_c and its other blocks' terms, the end forms the host and landmark terms.
   void begin_lift(int l);
   void accumulate_lifted(const Residual& rb, const double* r);

@@ -41,26 +41,17 @@ void Problem::accumulate_lifted(const Residual& rb, const double* r) {
   }
   lift_host_slot_ = rb.slot[rb.lift_pos];
   if (mark_touched_) touched_[rb.blocks[rb.lift_pos]] = true;
-  MatrixMap H = H_.m();
-  const Eigen::Index ld = H.outerStride();
   const int base = lm_cpl_begin_[rb.landmark];
   for (int a = 0; a < rb.num_sorted; ++a) {
     const int ka = rb.sorted[a];
     if (ka == rb.lift_pos) continue;
     if (mark_touched_) touched_[rb.blocks[ka]] = true;
+    add_blocks_2x6(rb, a, r, rb.lift_pos);
     const double* Ja = jac_ws_[ka];
-    const int oa = blocks_[rb.blocks[ka]].index;
     Pair j0[3], j1[3];
     for (int i = 0; i < 3; ++i) {
       j0[i] = load_pair(Ja + 2 * i);
       j1[i] = load_pair(Ja + 6 + 2 * i);
-    }
-    col_update2<6>(b_.data() + oa, j0, j1, r[0], r[1]);
-    add_jtj_2x6<true>(H.data() + oa * ld + oa, ld, Ja, Ja);
-    for (int c = a + 1; c < rb.num_sorted; ++c) {
-      const int kc = rb.sorted[c];
-      if (kc == rb.lift_pos) continue;
-      add_jtj_2x6<false>(H.data() + blocks_[rb.blocks[kc]].index * ld + oa, ld, Ja, jac_ws_[kc]);
     }
     const int local = rb.slot[ka] - base;
     lift_used_[local] = true;

@@ -86,30 +86,41 @@ bool Problem::evaluate_residual(const Residual& rb, bool jacobians, double* r, d
   return std::isfinite(*cost);
 }
 
+// b_a += J_a^T r and H(a, a..) += J_a^T J_c for the residual's sorted block a and the blocks after
+// it (2 rows, 6-dof blocks; the block at position `skip` of the residual, if any, left out: the
+// lifted host). Diagonal block: the upper triangle only.
+void Problem::add_blocks_2x6(const Residual& rb, int a, const double* r, int skip) {
+  MatrixMap H = H_.m();
+  const Eigen::Index ld = H.outerStride();
+  const int ka = rb.sorted[a];
+  const double* Ja = jac_ws_[ka];
+  const int oa = blocks_[rb.blocks[ka]].index;
+  Pair j0[3], j1[3];
+  for (int i = 0; i < 3; ++i) {
+    j0[i] = load_pair(Ja + 2 * i);
+    j1[i] = load_pair(Ja + 6 + 2 * i);
+  }
+  col_update2<6>(b_.data() + oa, j0, j1, r[0], r[1]);
+  add_jtj_2x6<true>(H.data() + oa * ld + oa, ld, Ja, Ja);
+  for (int c = a + 1; c < rb.num_sorted; ++c) {
+    const int kc = rb.sorted[c];
+    if (kc == skip) continue;
+    add_jtj_2x6<false>(H.data() + blocks_[rb.blocks[kc]].index * ld + oa, ld, Ja, jac_ws_[kc]);
+  }
+}
+
 // The dominant case (a 2-row reprojection over 6-dof blocks and one inverse depth), with every
 // block product fixed-size and the blocks pre-sorted by row so each lands in the upper triangle.
 void Problem::accumulate_two_row(const Residual& rb, const double* r) {
-  using J26 = Eigen::Map<const Eigen::Matrix<double, 2, 6, Eigen::RowMajor>>;
-  const Eigen::Map<const Eigen::Vector2d> rv(r);
-  MatrixMap H = H_.m();
-  const Eigen::Index ld = H.outerStride();
   const double* Jl = rb.lm_pos >= 0 ? jac_ws_[rb.lm_pos] : nullptr;
-  const int n = rb.num_sorted;
-  for (int a = 0; a < n; ++a) {
-    const int ka = rb.sorted[a];
-    const int oa = blocks_[rb.blocks[ka]].index;
-    const J26 A(jac_ws_[ka]);
-    b_.segment<6>(oa).noalias() += A.transpose() * rv;
-    // Diagonal block (upper triangle only), then the blocks to its right.
-    add_jtj_2x6<true>(H.data() + oa * ld + oa, ld, jac_ws_[ka], jac_ws_[ka]);
-    for (int c = a + 1; c < n; ++c) {
-      const int kc = rb.sorted[c];
-      add_jtj_2x6<false>(H.data() + blocks_[rb.blocks[kc]].index * ld + oa, ld, jac_ws_[ka],
-                         jac_ws_[kc]);
-    }
-    if (Jl != nullptr)
+  for (int a = 0; a < rb.num_sorted; ++a) {
+    add_blocks_2x6(rb, a, r, -1);
+    if (Jl != nullptr) {
+      const int ka = rb.sorted[a];
       Eigen::Map<Eigen::Matrix<double, 6, 1>>(v_ + cpl_v_[rb.slot[ka]]).noalias() +=
-          A.transpose() * Eigen::Map<const Eigen::Vector2d>(Jl);
+          Eigen::Map<const Eigen::Matrix<double, 2, 6, Eigen::RowMajor>>(jac_ws_[ka]).transpose() *
+          Eigen::Map<const Eigen::Vector2d>(Jl);
+    }
   }
   if (Jl != nullptr) {
     const int l = rb.landmark;

@@ -47,10 +47,10 @@ struct Solved {
   SolverSummary summary;
 };
 
+// replace_first: landmark 0 alone is seen through this lift (with lifts = false).
 Solved solve_window(bool lifts, int max_iterations, const PointLift* replace_first = nullptr) {
   Solved s;
   s.w = bench::make_vio_window(window(lifts));
-  if (replace_first != nullptr) s.w->config.point_lifts = false;
   REQUIRE(bench::add_to_problem(*s.w, *s.problem) == SolverStatus::kOk);
   if (replace_first != nullptr) {
     const int F = static_cast<int>(s.w->poses.size());
