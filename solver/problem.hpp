@@ -223,6 +223,7 @@ class Problem {
   bool reject_invalid_step(LmState& s);
   double apply_candidate();
   void restore_values();
+  bool predicted_converged(LmState& s, double model_change);
   bool candidate_converged(LmState& s, double step_norm, double cand_cost);
   bool accept_step(LmState& s, double cand_cost, double relative_decrease);
   // Solves the damped system (lm_scale = 1/radius; 0 for Gauss-Newton); false on failure.

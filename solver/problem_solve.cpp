@@ -115,6 +115,7 @@ bool Problem::iterate(LmState& s) {
   const bool valid = compute_step(s.lm ? 1.0 / s.radius : 0.0, &mcc) && (mcc > 0.0 || !s.lm);
   if (!valid) return reject_invalid_step(s);
   s.invalid_steps = 0;
+  if (predicted_converged(s, mcc)) return false;
 
   const double step_norm = apply_candidate();
   double cand_cost = 0.0;
@@ -184,6 +185,19 @@ void Problem::restore_values() {
     if (b.constant) continue;
     for (int j = 0; j < b.ambient; ++j) b.x[j] = backup_[i][j];
   }
+}
+
+// A step whose model change is a small share of the function tolerance ends the solve before
+// its candidate is formed and evaluated: Ceres would evaluate it and discard it under that
+// tolerance, unless the model under-predicted the change by 1 / predicted_stop_share or more.
+bool Problem::predicted_converged(LmState& s, double model_change) {
+  const SolverOptions& o = s.options;
+  if (!s.lm || !(o.predicted_stop_share > 0.0) ||
+      !(model_change <= o.predicted_stop_share * o.function_tolerance * s.x_cost))
+    return false;
+  s.summary.iterations = s.iteration - 1;  // as candidate_converged: the attempt is not listed
+  s.end(SolverStatus::kConverged, Termination::kPredictedFunctionTolerance, s.x_cost + s.fixed);
+  return true;
 }
 
 // Parameter tolerance |x_new - x| <= tol (|x| + tol), then function tolerance |cost change| <=

@@ -24,6 +24,11 @@ struct SolverOptions {
   double min_relative_decrease = 1e-3;       // accept a step when actual/predicted decrease > this
   int max_consecutive_invalid_steps = 5;     // count; then kNumericalFailure
   bool jacobi_scaling = true;  // damp in Ceres' column-scaled coordinates (1 / (1 + |J_col|))
+  // 1; not in Ceres, 0 turns it off (LM only). A step whose model predicts a cost change below
+  // predicted_stop_share * function_tolerance * cost ends the solve without the cost pass that
+  // Ceres spends on it: Ceres would discard it under function_tolerance unless its actual change
+  // were more than 1 / predicted_stop_share times the predicted one (docs/solver.md).
+  double predicted_stop_share = 0.0;
 
   bool validate() const {
     return max_iterations >= 0 && max_time_s > 0.0 && function_tolerance >= 0.0 &&
@@ -32,7 +37,8 @@ struct SolverOptions {
            max_trust_region_radius >= initial_trust_region_radius &&
            min_trust_region_radius >= 0.0 && min_lm_diagonal > 0.0 &&
            max_lm_diagonal >= min_lm_diagonal && min_relative_decrease >= 0.0 &&
-           max_consecutive_invalid_steps > 0;
+           max_consecutive_invalid_steps > 0 && predicted_stop_share >= 0.0 &&
+           predicted_stop_share <= 1.0;
   }
 };
 
@@ -40,6 +46,7 @@ enum class Termination : unsigned char {
   kNone = 0,
   kFunctionTolerance,
   kParameterTolerance,
+  kPredictedFunctionTolerance,  // the step's model change ended the solve (predicted_stop_share)
   kGradientTolerance,
   kMinTrustRegionRadius,
   kMaxIterations,

@@ -74,6 +74,9 @@ struct EstimatorOptions {
   int max_iterations_round2 = 4;          // LM iterations of the second round
   double round2_time_s = 0.010;           // s, time budget of the second round (paper: bounded)
   double function_tolerance = 1e-3;       // 1, relative cost change that ends a solve (converged)
+  double predicted_stop_share = 0.5;      // 1, a step whose model change is below this share of
+                                          // the function tolerance ends the solve unevaluated
+                                          // (SolverOptions::predicted_stop_share; 0: Ceres)
   bool two_stage = true;                  // false: one solve with every feature class
 
   // --- initialization (paper Sec. III-B) ---

@@ -67,6 +67,7 @@ bool ProblemBuilder::solve(const SolveSpec& spec, int max_iterations, double max
   opt.max_iterations = max_iterations;
   opt.max_time_s = max_time_s;
   opt.function_tolerance = options_.function_tolerance;
+  opt.predicted_stop_share = options_.predicted_stop_share;
   solver::SolverSummary summary;
   const solver::SolverStatus st = problem_->solve(opt, &summary);
   ++stats_->solves;

@@ -744,20 +744,24 @@ TEST_CASE("A solve keeps its residuals at the values it returns, bit for bit, un
   auto w = bench::make_vio_window(small_window(false, true));
   auto problem = std::make_unique<Problem>();
   int checked = 0;
-  bool saw_capped = false, saw_tolerance = false;
-  // Iteration caps that end on an accepted step or on a tolerance (the last candidate discarded).
-  for (double radius : {1e4, 1e-3}) {
+  bool saw_capped = false, saw_tolerance = false, saw_predicted = false;
+  // Iteration caps that end on an accepted step or on a tolerance (the last candidate discarded),
+  // with and without the predicted stop (no candidate formed).
+  for (double radius : {1e4, 1e-3})
+  for (double share : {0.0, 0.5}) {
     for (int iterations : {1, 2, 3, 5, 50}) {
       w->reset();
       REQUIRE(bench::add_to_problem(*w, *problem) == SolverStatus::kOk);
       SolverOptions opt;
       opt.max_iterations = iterations;
       opt.initial_trust_region_radius = radius;
+      opt.predicted_stop_share = share;
       SolverSummary sum;
       REQUIRE(usable(problem->solve(opt, &sum)));
       saw_capped |= sum.termination == Termination::kMaxIterations;
       saw_tolerance |= sum.termination == Termination::kFunctionTolerance ||
                        sum.termination == Termination::kParameterTolerance;
+      saw_predicted |= sum.termination == Termination::kPredictedFunctionTolerance;
       INFO("radius " << radius << " iterations " << iterations << ": " << sum.successful_steps << " of "
                      << sum.iterations << " steps accepted");
       REQUIRE(problem->solved_residuals_current());
@@ -773,6 +777,7 @@ TEST_CASE("A solve keeps its residuals at the values it returns, bit for bit, un
   CHECK(checked > 1000);
   CHECK(saw_capped);
   CHECK(saw_tolerance);
+  CHECK(saw_predicted);
   // A value moved after the solve: the kept residuals no longer describe the state.
   w->inv_depth[3] *= 1.01;
   CHECK_FALSE(problem->solved_residuals_current());
@@ -834,6 +839,63 @@ TEST_CASE("A solve that fails keeps no residuals, one over constant blocks is no
   x[0] = std::numeric_limits<double>::quiet_NaN();
   CHECK(problem->solve(SolverOptions{}, &sum) == SolverStatus::kInvalidInput);
   CHECK_FALSE(problem->solved_residuals_current());
+}
+
+// Counts the passes that evaluate residuals (each linearization and each candidate's cost).
+class PassCounter final : public EvaluationCallback {
+ public:
+  void prepare_for_evaluation() override { ++passes; }
+  int passes = 0;
+};
+
+TEST_CASE("A step predicted below the function tolerance ends the solve without its cost pass",
+          "[solver][problem]") {
+  auto w = bench::make_vio_window(small_window(false, true));
+  auto problem = std::make_unique<Problem>();
+  SolverOptions opt;
+  opt.function_tolerance = 1e-3;  // the estimator's
+  SolverSummary sum[2];
+  int passes[2];
+  std::vector<double> x[2];
+  const double shares[2] = {0.0, 0.5};  // Ceres' tests; the estimator's default
+  for (int k = 0; k < 2; ++k) {
+    w->reset();
+    REQUIRE(bench::add_to_problem(*w, *problem) == SolverStatus::kOk);
+    PassCounter counter;
+    problem->set_evaluation_callback(&counter);
+    opt.predicted_stop_share = shares[k];
+    REQUIRE(problem->solve(opt, &sum[k]) == SolverStatus::kConverged);
+    problem->set_evaluation_callback(nullptr);
+    passes[k] = counter.passes;
+    x[k] = snapshot(*w);
+    REQUIRE(problem->solved_residuals_current());
+  }
+  INFO("cost " << sum[0].initial_cost << " -> " << sum[0].final_cost << ", " << sum[0].iterations
+               << " iterations, " << passes[0] << " / " << passes[1] << " passes");
+  CHECK(sum[0].termination == Termination::kFunctionTolerance);
+  CHECK(sum[1].termination == Termination::kPredictedFunctionTolerance);
+  CHECK(passes[1] == passes[0] - 1);  // the discarded candidate's cost pass
+  // Otherwise the same solve: the same iterate, bit for bit, cost and counts.
+  CHECK(x[1] == x[0]);
+  CHECK(sum[1].final_cost == sum[0].final_cost);
+  CHECK(sum[1].iterations == sum[0].iterations);
+  CHECK(sum[1].linearizations == sum[0].linearizations);
+  // Gauss-Newton accepts every step: the share does not apply. Out of range: refused.
+  opt.method = Method::kGaussNewton;
+  for (int k = 0; k < 2; ++k) {
+    w->reset();
+    REQUIRE(bench::add_to_problem(*w, *problem) == SolverStatus::kOk);
+    PassCounter counter;
+    problem->set_evaluation_callback(&counter);
+    opt.predicted_stop_share = shares[k];
+    REQUIRE(usable(problem->solve(opt, &sum[k])));
+    problem->set_evaluation_callback(nullptr);
+    passes[k] = counter.passes;
+  }
+  CHECK(passes[1] == passes[0]);
+  CHECK(sum[1].termination == sum[0].termination);
+  opt.predicted_stop_share = 1.5;
+  CHECK(problem->solve(opt, &sum[0]) == SolverStatus::kInvalidInput);
 }
 
 }  // namespace ums::solver

@@ -202,6 +202,9 @@ TEST_CASE("estimator: invalid options are refused at start-up", "[estimator]") {
   o = ums::EstimatorOptions();
   o.sigma_px = 0.0;
   CHECK_THROWS_AS(ums::Estimator(o, rig), std::invalid_argument);
+  o = ums::EstimatorOptions();
+  o.predicted_stop_share = 1.5;  // a share of the function tolerance
+  CHECK_THROWS_AS(ums::Estimator(o, rig), std::invalid_argument);
 }
 
 TEST_CASE("estimator: IMU_ONLY gives no pose while the velocity is unknown (moving, no vision)", "[estimator]") {
