@@ -41,7 +41,16 @@ Status ImuResidual::init(const Preintegration* preintegration, const Eigen::Vect
 
 Status ImuResidual::update_whitening() {
   if (pre_ == nullptr) return Status::kInvalidInput;
-  return pre_->sqrt_information(&sqrt_information_);
+  // Two 15 x 15 factorizations and an inverse (about 57 k instructions) against 225 compares.
+  const Preintegration::Matrix15 P = pre_->whitened_covariance();
+  if (whitened_ && P == whitened_covariance_) return Status::kOk;
+  whitened_ = false;
+  const Status s = Preintegration::sqrt_information_of(P, &sqrt_information_);
+  if (s == Status::kOk) {
+    whitened_covariance_ = P;
+    whitened_ = true;
+  }
+  return s;
 }
 
 ImuResidual::Vector15 ImuResidual::raw_residual(const double* pose_i, const double* speedbias_i,

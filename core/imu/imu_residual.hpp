@@ -34,7 +34,9 @@ class ImuResidual {
   // evaluate(), so a repropagation is seen, but then call update_whitening()) and the gravity
   // vector. kSingular when its covariance cannot be inverted (fewer than two samples).
   Status init(const Preintegration* preintegration, const Eigen::Vector3d& g_w);
-  // Recomputes the whitening after the preintegration changed (repropagation).
+  // Recomputes the whitening after the preintegration changed (repropagation). A covariance
+  // equal, bit for bit, to the one of the last successful whitening keeps it: the window
+  // re-binds every frame's factor each frame, and most preintegrations have not changed.
   Status update_whitening();
 
   // residual: 15 doubles. jacobians: each may be null; otherwise row-major 15x6 (pose_i),
@@ -55,6 +57,8 @@ class ImuResidual {
   const Preintegration* pre_ = nullptr;
   Eigen::Vector3d g_w_ = Eigen::Vector3d(0.0, 0.0, -9.81);
   Preintegration::Matrix15 sqrt_information_ = Preintegration::Matrix15::Identity();
+  Preintegration::Matrix15 whitened_covariance_ = Preintegration::Matrix15::Zero();  // its P, when whitened_
+  bool whitened_ = false;
 };
 
 }  // namespace ums

@@ -247,6 +247,10 @@ void Preintegration::corrected(const Eigen::Vector3d& ba, const Eigen::Vector3d&
 }
 
 Status Preintegration::sqrt_information(Matrix15* U) const {
+  return sqrt_information_of(whitened_covariance(), U);
+}
+
+Preintegration::Matrix15 Preintegration::whitened_covariance() const {
   // Symmetrise first: F P F^T accumulates rounding asymmetry.
   Matrix15 P = 0.5 * (covariance_ + covariance_.transpose());
   if (has_unmodelled_motion()) {
@@ -258,6 +262,10 @@ Status Preintegration::sqrt_information(Matrix15* U) const {
     P.block<3, 3>(kP, kV) += l * var_v * I;
     P.block<3, 3>(kV, kP) += l * var_v * I;
   }
+  return P;
+}
+
+Status Preintegration::sqrt_information_of(const Matrix15& P, Matrix15* U) {
   Eigen::LLT<Matrix15> llt_p(P);
   if (llt_p.info() != Eigen::Success) return Status::kSingular;
   Matrix15 info = llt_p.solve(Matrix15::Identity());

@@ -86,6 +86,11 @@ class Preintegration {
   // Upper Cholesky factor U of the inverse covariance (U^T U = P^-1): r_whitened = U r.
   // kSingular if the covariance is not positive definite (e.g. fewer than two samples).
   Status sqrt_information(Matrix15* U) const;
+  // The P that sqrt_information() whitens with: the covariance, symmetrised, plus the
+  // unmodelled motion's variances.
+  Matrix15 whitened_covariance() const;
+  // U of a given P (as sqrt_information()).
+  static Status sqrt_information_of(const Matrix15& P, Matrix15* U);
 
   const Eigen::Vector3d& alpha() const { return alpha_; }     // m, in body frame i
   const Eigen::Vector3d& beta() const { return beta_; }       // m/s, in body frame i

@@ -94,6 +94,45 @@ TEST_CASE("imu residual is zero at the true states", "[imu][residual]") {
   CHECK(std::abs(rw.squaredNorm() - maha) < 1e-6 * maha);
 }
 
+TEST_CASE("imu residual whitening follows the preintegration: kept while unchanged, renewed after",
+          "[imu][residual]") {
+  SyntheticTrajectory traj;
+  Preintegration pre;
+  preintegrate(traj, 2'000'000'000, 80, traj.ba, traj.bg, &pre);
+  ImuResidual res;
+  const auto matches = [&](const Preintegration& p) {
+    Preintegration::Matrix15 U;
+    REQUIRE(p.sqrt_information(&U) == Status::kOk);
+    return res.sqrt_information() == U;  // bit for bit
+  };
+  REQUIRE(res.init(&pre, traj.g_w) == Status::kOk);
+  CHECK(matches(pre));
+  const Preintegration::Matrix15 U0 = res.sqrt_information();
+  // Re-bound unchanged (what the window does every frame): the same factor.
+  REQUIRE(res.init(&pre, traj.g_w) == Status::kOk);
+  CHECK(res.sqrt_information() == U0);
+  // More samples: a new covariance, a new factor.
+  REQUIRE(pre.add(traj.sample(2'000'000'000 + 81 * kImuPeriodNs)) == Status::kOk);
+  REQUIRE(res.update_whitening() == Status::kOk);
+  CHECK(matches(pre));
+  CHECK_FALSE(res.sqrt_information() == U0);
+  // Unmodelled motion changes the whitened covariance, not covariance(): renewed as well.
+  const Preintegration::Matrix15 U1 = res.sqrt_information();
+  Preintegration::UnmodelledMotion u;
+  u.var_theta_rad2 = 1e-4;
+  pre.add_unmodelled_motion(u);
+  REQUIRE(res.update_whitening() == Status::kOk);
+  CHECK(matches(pre));
+  CHECK(res.sqrt_information()(0, 0) != U1(0, 0));
+  // A singular covariance is refused every time; the next valid one is whitened afresh.
+  Preintegration one;
+  REQUIRE(one.reset(traj.sample(5'000'000'000), traj.ba, traj.bg) == Status::kOk);
+  CHECK(res.init(&one, traj.g_w) == Status::kSingular);
+  CHECK(res.init(&one, traj.g_w) == Status::kSingular);
+  REQUIRE(res.init(&pre, traj.g_w) == Status::kOk);
+  CHECK(matches(pre));
+}
+
 TEST_CASE("imu residual Jacobians match central differences through the manifold plus",
           "[imu][residual]") {
   std::mt19937 rng(42);
