@@ -11,6 +11,9 @@
 namespace ums::solver {
 
 void Problem::clear() {
+  for (int i = 0; i < num_blocks_; ++i) hint_[i] = false;
+  hinted_ = false;
+  sep_valid_ = false;
   num_blocks_ = 0;
   num_residuals_ = 0;
   num_priors_ = 0;

@@ -118,6 +118,25 @@ class Problem {
   // must be in the list. out->block(i).source_id are ids of this problem. kSingular if a
   // marginalized block carries no information at all.
   SolverStatus marginalize(const BlockId* ids, int n, MarginalPrior* out);
+  // The blocks marginalize() will probably be given after the coming solve (the same list, any
+  // order). Every full linearization then sums the terms of the listed landmarks' residuals
+  // apart before adding them to H, and marginalize() with exactly those landmarks takes them
+  // instead of evaluating the residuals again, when the problem and every block's value (constant
+  // ones too, bit for bit) are those of the last linearization; otherwise it linearizes as
+  // without a hint. The prior agrees with the unhinted one to rounding (docs/solver.md,
+  // "Marginalization"). As for solved_residuals_current(), the residual objects' own state must
+  // not change in between. Kept until clear(); n = 0 removes it.
+  SolverStatus set_marginalization_hint(const BlockId* ids, int n);
+  // The caller moved pose blocks ids[0..n) together since the last linearization, by one rigid
+  // transform of their world frame (p' = R p + t, q' = R q; other blocks as it pleases: the kept
+  // landmark terms read poses, extrinsics and landmarks only). The kept terms follow: in the
+  // tangent p' = R p the Jacobians' position columns are J R^T, so those rows and columns of H,
+  // b and V are rotated by R, and the moved values become the ones the terms were taken at. A
+  // move that was not rigid (1e-9 relative) or not by R drops the terms. kInvalidInput: a bad id
+  // or a block that is not a pose.
+  SolverStatus note_world_moved(const BlockId* ids, int n, const Eigen::Matrix3d& R);
+  // The last marginalize() took the kept terms (for statistics and tests).
+  bool marginalization_reused() const { return marg_reused_; }
 
   // Reduced-system layout after a solve/marginalize (for diagnostics and tests): first row of a
   // variable non-eliminated block in the reduced system, or -1.
@@ -208,6 +227,13 @@ class Problem {
   static void zero_upper(MatrixMap H);
   void zero_linear_system();
   bool linear_system_finite() const;
+  // Landmark l's residuals at the current values (cost into *total, values into kept), with
+  // jacobians accumulated (into Hsep_, bsep_ when hinted: hinted_landmark()).
+  bool linearize_landmark(int l, bool jacobians, double* total, double* kept);
+  bool hinted_landmark(int l) const { return hint_[lm_block_[l]] && !blocks_[lm_block_[l]].constant; }
+  // H_ += Hsep_, b_ += bsep_ over the rows landmarks couple to (upper triangle).
+  void add_separated();
+  void note_separated_linearization();  // lin_x_, sep_valid_ (after a full linearization)
   // Cost (and, with jacobians, H_, b_, landmark blocks) at the current values; false if not finite.
   // The residuals' values go to kept_[kept_write_] when kept_write_ >= 0.
   bool linearize(bool jacobians, double* cost);
@@ -259,6 +285,11 @@ class Problem {
   SolverStatus marginalize_prepared(const BlockId* ids, int n, MarginalPrior* out);
   SolverStatus select_marginalized(const BlockId* ids, int n);
   SolverStatus linearize_marginalized();
+  bool separated_current() const;
+  bool block_as_linearized(int i) const;
+  bool moved_rigidly(const BlockId* ids, int n, const Eigen::Matrix3d& R) const;
+  void rotate_separated(const BlockId* ids, int n, const Eigen::Matrix3d& R);
+  SolverStatus reuse_marginalized();
   SolverStatus accumulate_marginalized();
   bool linearize_marginalized_landmark(int l);
   SolverStatus partition_marginal_rows(MarginalRows* rows);
@@ -357,6 +388,19 @@ class Problem {
   bool jac_wanted_[capacity::kMaxBlocksPerResidual] = {};
   JacobianView jac_view_[capacity::kMaxBlocksPerResidual];
   const JacobianView no_jac_[capacity::kMaxBlocksPerResidual] = {};
+
+  // Marginalization hint: hint_[block] listed; the hinted landmarks' terms of the last full
+  // linearization (Hsep_ upper triangle, bsep_, over rows [0, n_front_)), valid (sep_valid_) at
+  // the block values lin_x_. acc_H_, acc_b_: where the accumulation writes (H_, b_ or these).
+  bool hint_[capacity::kMaxParameterBlocks] = {};
+  bool hinted_ = false;
+  DenseMatrix Hsep_;
+  DenseVector bsep_;
+  DenseMatrix* acc_H_ = &H_;
+  DenseVector* acc_b_ = &b_;
+  bool sep_valid_ = false;
+  bool marg_reused_ = false;
+  double lin_x_[capacity::kMaxParameterBlocks][capacity::kMaxBlockAmbientSize] = {};
 
   // Prior / marginalization workspace.
   DenseMatrix M_;

@@ -77,14 +77,14 @@ bool Problem::finish_lift(int l) {
     for (int j = 0; j < 6; ++j) T[6 * k + j] = S[3 * k] * G[j] + S[3 * k + 1] * G[kG + j] + S[3 * k + 2] * G[2 * kG + j];
     Sg[k] = S[3 * k] * G[6] + S[3 * k + 1] * G[kG + 6] + S[3 * k + 2] * G[2 * kG + 6];
   }
-  MatrixMap H = H_.m();
+  MatrixMap H = acc_H_->m();
   const Eigen::Index ld = H.outerStride();
   const int oh = blocks_[lr.blocks[0]].index;
   double* vh = v_ + cpl_v_[lift_host_slot_];
   for (int i = 0; i < 6; ++i) {
     const double g0 = G[i], g1 = G[kG + i], g2 = G[2 * kG + i];
     for (int j = i; j < 6; ++j) H.data()[(oh + j) * ld + oh + i] += g0 * T[j] + g1 * T[6 + j] + g2 * T[12 + j];
-    b_[oh + i] += g0 * lift_s_[0] + g1 * lift_s_[1] + g2 * lift_s_[2];
+    (*acc_b_)[oh + i] += g0 * lift_s_[0] + g1 * lift_s_[1] + g2 * lift_s_[2];
     vh[i] += g0 * Sg[0] + g1 * Sg[1] + g2 * Sg[2];
   }
   const double g[3] = {G[6], G[kG + 6], G[2 * kG + 6]};
@@ -99,7 +99,7 @@ bool Problem::finish_lift(int l) {
 // diagonal a column of the block is G_h^T times a column of X_c (G's rows as packets), below it
 // X_c^T times a column of G_h (X_c's rows as packets).
 void Problem::add_lift_couplings(int l, const double* G) {
-  MatrixMap H = H_.m();
+  MatrixMap H = acc_H_->m();
   const Eigen::Index ld = H.outerStride();
   const int oh = blocks_[lifts_[lm_lift_[l]].blocks[0]].index;
   const int base = lm_cpl_begin_[l];

@@ -90,7 +90,7 @@ bool Problem::evaluate_residual(const Residual& rb, bool jacobians, double* r, d
 // it (2 rows, 6-dof blocks; the block at position `skip` of the residual, if any, left out: the
 // lifted host). Diagonal block: the upper triangle only.
 void Problem::add_blocks_2x6(const Residual& rb, int a, const double* r, int skip) {
-  MatrixMap H = H_.m();
+  MatrixMap H = acc_H_->m();
   const Eigen::Index ld = H.outerStride();
   const int ka = rb.sorted[a];
   const double* Ja = jac_ws_[ka];
@@ -100,7 +100,7 @@ void Problem::add_blocks_2x6(const Residual& rb, int a, const double* r, int ski
     j0[i] = load_pair(Ja + 2 * i);
     j1[i] = load_pair(Ja + 6 + 2 * i);
   }
-  col_update2<6>(b_.data() + oa, j0, j1, r[0], r[1]);
+  col_update2<6>(acc_b_->data() + oa, j0, j1, r[0], r[1]);
   add_jtj_2x6<true>(H.data() + oa * ld + oa, ld, Ja, Ja);
   for (int c = a + 1; c < rb.num_sorted; ++c) {
     const int kc = rb.sorted[c];
@@ -167,15 +167,15 @@ int Problem::accumulate_reduced(const Residual& rb, const double* r) {
       lm_j = a;
       continue;
     }
-    add_jtr(b_, ba.index, jac_ws_[a], ba.tangent, r, rows);
+    add_jtr(*acc_b_, ba.index, jac_ws_[a], ba.tangent, r, rows);
     for (int c = a; c < rb.num_blocks; ++c) {
       if (!jac_wanted_[c]) continue;
       const Block& bc = blocks_[rb.blocks[c]];
       if (bc.eliminate) continue;
       if (ba.index <= bc.index)
-        add_jtj(H_.m(), ba.index, bc.index, jac_ws_[a], ba.tangent, jac_ws_[c], bc.tangent, rows);
+        add_jtj(acc_H_->m(), ba.index, bc.index, jac_ws_[a], ba.tangent, jac_ws_[c], bc.tangent, rows);
       else
-        add_jtj(H_.m(), bc.index, ba.index, jac_ws_[c], bc.tangent, jac_ws_[a], ba.tangent, rows);
+        add_jtj(acc_H_->m(), bc.index, ba.index, jac_ws_[c], bc.tangent, jac_ws_[a], ba.tangent, rows);
     }
   }
   return lm_j;
@@ -287,6 +287,11 @@ void Problem::zero_upper(MatrixMap H) {
 void Problem::zero_linear_system() {
   zero_upper(H_.m());
   b_.setZero();
+  if (hinted_) {
+    MatrixMap Hs = Hsep_.m();
+    for (int j = 0; j < n_front_; ++j) std::fill(Hs.data() + j * Hs.outerStride(), Hs.data() + j * Hs.outerStride() + j + 1, 0.0);
+    for (int i = 0; i < n_front_; ++i) bsep_[i] = 0.0;
+  }
   for (int l = 0; l < num_lm_; ++l) {
     for (int i = 0; i < 9; ++i) Hll_[l][i] = 0.0;
     for (int i = 0; i < 3; ++i) gl_[l][i] = 0.0;
@@ -308,24 +313,30 @@ bool Problem::linearize(bool jacobians, double* cost) {
   double total = 0.0;
   double r[capacity::kMaxResidualSize];
   double c = 0.0;
-  if (jacobians) zero_linear_system();
+  const bool apart = jacobians && hinted_;
+  if (jacobians) {
+    sep_valid_ = false;
+    zero_linear_system();
+  }
   double* kept = kept_write_ >= 0 ? kept_[kept_write_] : nullptr;
-  auto keep = [&](int k) { return kept != nullptr && kept_off_[k] >= 0 ? kept + kept_off_[k] : nullptr; };
   for (int q = 0; q < num_free_res_; ++q) {
-    if (!evaluate_residual(residuals_[free_res_[q]], jacobians, r, &c, keep(free_res_[q]))) return false;
+    const int k = free_res_[q];
+    if (!evaluate_residual(residuals_[k], jacobians, r, &c, kept != nullptr && kept_off_[k] >= 0 ? kept + kept_off_[k] : nullptr))
+      return false;
     total += c;
-    if (jacobians) accumulate_residual(free_res_[q], r);
+    if (jacobians) accumulate_residual(k, r);
   }
   for (int l = 0; l < num_lm_; ++l) {
-    const bool lifted = jacobians && lm_lift_[l] >= 0;
-    if (lifted) begin_lift(l);
-    for (int q = lm_res_begin_[l]; q < lm_res_begin_[l + 1]; ++q) {
-      if (!evaluate_residual(residuals_[lm_res_[q]], jacobians, r, &c, keep(lm_res_[q]))) return false;
-      total += c;
-      if (jacobians) accumulate_residual(lm_res_[q], r);
+    if (apart && hinted_landmark(l)) {
+      acc_H_ = &Hsep_;
+      acc_b_ = &bsep_;
     }
-    if (lifted && !finish_lift(l)) return false;
+    const bool ok = linearize_landmark(l, jacobians, &total, kept);
+    acc_H_ = &H_;
+    acc_b_ = &b_;
+    if (!ok) return false;
   }
+  if (apart) add_separated();
   for (int p = 0; p < num_priors_; ++p) {
     if (priors_[p].fixed) continue;
     if (!linearize_prior(priors_[p], jacobians, &c)) return false;
@@ -333,7 +344,42 @@ bool Problem::linearize(bool jacobians, double* cost) {
   }
   *cost = total;
   if (!std::isfinite(total)) return false;
-  return !jacobians || linear_system_finite();
+  if (!jacobians) return true;
+  if (!linear_system_finite()) return false;
+  if (apart) note_separated_linearization();
+  return true;
+}
+
+bool Problem::linearize_landmark(int l, bool jacobians, double* total, double* kept) {
+  double r[capacity::kMaxResidualSize];
+  double c = 0.0;
+  const bool lifted = jacobians && lm_lift_[l] >= 0;
+  if (lifted) begin_lift(l);
+  for (int q = lm_res_begin_[l]; q < lm_res_begin_[l + 1]; ++q) {
+    const int k = lm_res_[q];
+    if (!evaluate_residual(residuals_[k], jacobians, r, &c, kept != nullptr && kept_off_[k] >= 0 ? kept + kept_off_[k] : nullptr))
+      return false;
+    *total += c;
+    if (jacobians) accumulate_residual(k, r);
+  }
+  return !lifted || finish_lift(l);
+}
+
+// Rows [0, n_front_) are the blocks landmarks couple to: the only ones their residuals reach.
+void Problem::add_separated() {
+  MatrixMap H = H_.m();
+  const MatrixMap Hs = Hsep_.m();
+  for (int j = 0; j < n_front_; ++j) {
+    double* col = H.data() + j * H.outerStride();
+    const double* sep = Hs.data() + j * Hs.outerStride();
+    for (int i = 0; i <= j; ++i) col[i] += sep[i];
+  }
+  for (int i = 0; i < n_front_; ++i) b_[i] += bsep_[i];
+}
+
+void Problem::note_separated_linearization() {
+  for (int i = 0; i < num_blocks_; ++i) std::copy(blocks_[i].x, blocks_[i].x + blocks_[i].ambient, lin_x_[i]);
+  sep_valid_ = true;
 }
 
 double Problem::fixed_cost() {

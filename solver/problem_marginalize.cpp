@@ -16,11 +16,25 @@ struct Problem::MarginalRows {
   int nk = 0;  // kept blocks (prior_blocks_[0..nk))
 };
 
+SolverStatus Problem::set_marginalization_hint(const BlockId* ids, int n) {
+  if (n < 0 || (n > 0 && ids == nullptr)) return SolverStatus::kInvalidInput;
+  for (int k = 0; k < n; ++k)
+    if (ids[k] < 0 || ids[k] >= num_blocks_) return SolverStatus::kInvalidInput;
+  for (int i = 0; i < num_blocks_; ++i) hint_[i] = false;
+  for (int k = 0; k < n; ++k) hint_[ids[k]] = true;
+  hinted_ = n > 0;
+  sep_valid_ = false;
+  return SolverStatus::kOk;
+}
+
 SolverStatus Problem::marginalize(const BlockId* ids, int n, MarginalPrior* out) {
   if (out == nullptr || n < 0) return SolverStatus::kInvalidInput;
+  // A structural change since the last linearization (prepared_ false) leaves its terms stale.
+  if (!prepared_) sep_valid_ = false;
   const SolverStatus st = prepare();
   if (st != SolverStatus::kOk) return st;
   const SolverStatus ms = marginalize_prepared(ids, n, out);
+  sep_valid_ = false;  // H_ and the landmark terms now hold the marginal system's
   // The workspace was resized for the marginal system: it belongs to the solve layout again,
   // whichever step stopped (a kFull or kSingular used to leave the problem marked prepared).
   prepared_ = false;
@@ -28,9 +42,11 @@ SolverStatus Problem::marginalize(const BlockId* ids, int n, MarginalPrior* out)
 }
 
 SolverStatus Problem::marginalize_prepared(const BlockId* ids, int n, MarginalPrior* out) {
+  marg_reused_ = false;
   SolverStatus st = select_marginalized(ids, n);
   if (st != SolverStatus::kOk) return st;
-  st = linearize_marginalized();
+  marg_reused_ = separated_current();
+  st = marg_reused_ ? reuse_marginalized() : linearize_marginalized();
   if (st != SolverStatus::kOk) return st;
   MarginalRows rows;
   st = partition_marginal_rows(&rows);
@@ -104,6 +120,141 @@ SolverStatus Problem::accumulate_marginalized() {
     if (hit && !linearize_prior(pr, true, &c)) return SolverStatus::kInvalidInput;
   }
   return SolverStatus::kOk;
+}
+
+// The last full linearization's terms fit this marginalization: it kept the marginalized
+// landmarks, exactly those, apart, at the blocks' present values.
+bool Problem::separated_current() const {
+  if (!sep_valid_) return false;
+  for (int l = 0; l < num_lm_; ++l)
+    if (marg_[lm_block_[l]] != hinted_landmark(l)) return false;
+  // Only what the kept terms read must be as linearized: the blocks of the marginalized
+  // landmarks' residuals and lifts (visited once each).
+  bool seen[capacity::kMaxParameterBlocks] = {};
+  auto same = [&](const std::int16_t* ids, int n) {
+    for (int j = 0; j < n; ++j) {
+      if (seen[ids[j]]) continue;
+      seen[ids[j]] = true;
+      if (!block_as_linearized(ids[j])) return false;
+    }
+    return true;
+  };
+  for (int l = 0; l < num_lm_; ++l) {
+    if (!marg_[lm_block_[l]]) continue;
+    if (lm_lift_[l] >= 0 && !same(lifts_[lm_lift_[l]].blocks, lifts_[lm_lift_[l]].num_blocks)) return false;
+    for (int q = lm_res_begin_[l]; q < lm_res_begin_[l + 1]; ++q)
+      if (!same(residuals_[lm_res_[q]].blocks, residuals_[lm_res_[q]].num_blocks)) return false;
+  }
+  return true;
+}
+
+bool Problem::block_as_linearized(int i) const {
+  return std::equal(blocks_[i].x, blocks_[i].x + blocks_[i].ambient, lin_x_[i]);
+}
+
+SolverStatus Problem::note_world_moved(const BlockId* ids, int n, const Eigen::Matrix3d& R) {
+  if (n < 0 || (n > 0 && ids == nullptr)) return SolverStatus::kInvalidInput;
+  for (int k = 0; k < n; ++k)
+    if (ids[k] < 0 || ids[k] >= num_blocks_ || blocks_[ids[k]].manifold != ManifoldType::kPose)
+      return SolverStatus::kInvalidInput;
+  if (!sep_valid_ || !prepared_) return SolverStatus::kOk;
+  if (!moved_rigidly(ids, n, R)) {
+    sep_valid_ = false;
+    return SolverStatus::kOk;
+  }
+  rotate_separated(ids, n, R);
+  for (int k = 0; k < n; ++k) std::copy(blocks_[ids[k]].x, blocks_[ids[k]].x + kPoseAmbientSize, lin_x_[ids[k]]);
+  return SolverStatus::kOk;
+}
+
+// Each pose's rotation is R times the linearized one, and its position R p + t with one t for all.
+bool Problem::moved_rigidly(const BlockId* ids, int n, const Eigen::Matrix3d& R) const {
+  constexpr double kTol = 1e-9;
+  if (!(R.transpose() * R - Eigen::Matrix3d::Identity()).isZero(kTol)) return false;
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+  for (int k = 0; k < n; ++k) {
+    const double* now = blocks_[ids[k]].x;
+    const double* lin = lin_x_[ids[k]];
+    const Eigen::Vector3d p_now(now[0], now[1], now[2]), p_lin(lin[0], lin[1], lin[2]);
+    const Eigen::Matrix3d R_now = Eigen::Quaterniond(now[6], now[3], now[4], now[5]).normalized().toRotationMatrix();
+    const Eigen::Matrix3d R_lin = Eigen::Quaterniond(lin[6], lin[3], lin[4], lin[5]).normalized().toRotationMatrix();
+    if (!(R_now - R * R_lin).isZero(kTol)) return false;
+    if (k == 0) t = p_now - R * p_lin;
+    if (!((p_now - (R * p_lin + t)).norm() <= kTol * (1.0 + p_now.norm()))) return false;
+  }
+  return true;
+}
+
+// H' = M H M^T, b' = M b, V' = M V with M = R on the moved poses' position rows, I elsewhere.
+// Hsep_'s upper triangle is made whole in S_ (free between a solve and a marginalization).
+void Problem::rotate_separated(const BlockId* ids, int n, const Eigen::Matrix3d& R) {
+  using Rows3 = Eigen::Matrix<double, 3, Eigen::Dynamic, 0, 3, capacity::kMaxReducedDim>;
+  using Cols3 = Eigen::Matrix<double, Eigen::Dynamic, 3, 0, capacity::kMaxReducedDim, 3>;
+  const int f = n_front_;
+  MatrixMap full = S_.m();
+  MatrixMap Hs = Hsep_.m();
+  for (int j = 0; j < f; ++j)
+    for (int i = 0; i <= j; ++i) full(i, j) = full(j, i) = Hs(i, j);
+  for (int k = 0; k < n; ++k) {
+    const int o = blocks_[ids[k]].index;
+    if (o < 0 || o >= f) continue;  // constant, or no landmark sees it
+    const Rows3 rows = R * full.block(o, 0, 3, f);
+    full.block(o, 0, 3, f) = rows;
+    const Cols3 cols = full.block(0, o, f, 3) * R.transpose();
+    full.block(0, o, f, 3) = cols;
+    bsep_.segment<3>(o) = (R * bsep_.segment<3>(o)).eval();
+  }
+  for (int j = 0; j < f; ++j)
+    for (int i = 0; i <= j; ++i) Hs(i, j) = full(i, j);
+  for (int l = 0; l < num_lm_; ++l) {
+    if (!hinted_landmark(l)) continue;
+    const int e = lm_dim_[l];
+    for (int a = lm_cpl_begin_[l]; a < lm_cpl_begin_[l + 1]; ++a) {
+      bool moved = false;
+      for (int k = 0; k < n; ++k) moved = moved || blocks_[ids[k]].index == cpl_row_[a];
+      if (!moved) continue;
+      Eigen::Map<Eigen::Matrix<double, 3, Eigen::Dynamic, Eigen::RowMajor, 3, 3>> v(v_ + cpl_v_[a], 3, e);
+      v = (R * v).eval();
+    }
+  }
+}
+
+// As linearize_marginalized(), with the marginalized landmarks' terms (Hsep_, bsep_, and their
+// H_ll, g_l, V, which the steps only read) taken from the last full linearization: the other
+// residuals and priors touching marginalized blocks are linearized, then the landmarks eliminated.
+SolverStatus Problem::reuse_marginalized() {
+  if (callback_ != nullptr) callback_->prepare_for_evaluation();
+  zero_upper(H_.m());
+  b_.setZero();
+  add_separated();
+  for (int l = 0; l < num_lm_; ++l) {
+    if (!marg_[lm_block_[l]]) continue;
+    for (int q = lm_res_begin_[l]; q < lm_res_begin_[l + 1]; ++q) {
+      const Residual& rb = residuals_[lm_res_[q]];
+      for (int j = 0; j < rb.num_blocks; ++j) touched_[rb.blocks[j]] = touched_[rb.blocks[j]] || rb.variable[j];
+    }
+  }
+  mark_touched_ = true;
+  double r[capacity::kMaxResidualSize];
+  double c = 0.0;
+  SolverStatus st = SolverStatus::kOk;
+  for (int q = 0; q < num_free_res_ && st == SolverStatus::kOk; ++q) {
+    const Residual& rb = residuals_[free_res_[q]];
+    if (!touches_marginalized(rb)) continue;
+    if (evaluate_residual(rb, true, r, &c)) accumulate_residual(free_res_[q], r);
+    else st = SolverStatus::kInvalidInput;
+  }
+  for (int l = 0; l < num_lm_ && st == SolverStatus::kOk; ++l)
+    if (marg_[lm_block_[l]]) eliminate_landmark(l, 0.0, H_.m(), b_, false);
+  for (int p = 0; p < num_priors_ && st == SolverStatus::kOk; ++p) {
+    const PriorRef& pr = priors_[p];
+    if (pr.fixed) continue;
+    bool hit = false;
+    for (int i = 0; i < pr.prior->num_blocks(); ++i) hit = hit || marg_[pr.blocks[i]];
+    if (hit && !linearize_prior(pr, true, &c)) st = SolverStatus::kInvalidInput;
+  }
+  mark_touched_ = false;
+  return st;
 }
 
 // Landmark l's residuals accumulated, then l Schur-eliminated into H_, b_ (no damping).

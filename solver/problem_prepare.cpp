@@ -355,6 +355,8 @@ void Problem::assign_kept_rows() {
 
 void Problem::resize_workspace() {
   H_.resize(n_red_, n_red_);
+  Hsep_.resize(n_red_, n_red_);
+  bsep_.resize(n_red_);
   S_.resize(n_red_, n_red_);
   b_.resize(n_red_);
   rhs_.resize(n_red_);
