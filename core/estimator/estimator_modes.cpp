@@ -105,6 +105,7 @@ void Estimator::hold_gauge(const Eigen::Isometry3d& T_w_b0_before) {
   R_z(1, 0) = cs.y() / n;
   R_z(0, 1) = -cs.y() / n;
   window_->move(R_z, T_w_b0.translation(), T_w_b0_before.translation());
+  builder_->note_window_moved(R_z);
 }
 
 void Estimator::frame_vio(WindowFrame& f, EstimatorTiming* timing) {

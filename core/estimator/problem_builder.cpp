@@ -96,6 +96,12 @@ int ProblemBuilder::build(const SolveSpec& spec) {
     problem_->add_residual(&gyro_scale_prior_, solver::RobustLoss::trivial(), {gs_id_});
   }
   if (spec.prior && !marginalizer_->empty()) add_marginal_prior();
+  // After a keyframe the oldest frame and its landmarks are marginalized from this problem
+  // (Estimator::slide_window): the solve keeps their terms for it.
+  if (spec.imu && !window_->empty() && window_->newest().keyframe) {
+    int ids[2 + capacity::kMaxLandmarks];
+    problem_->set_marginalization_hint(ids, oldest_frame_blocks(ids));
+  }
   return n_selected_;
 }
 
@@ -371,6 +377,13 @@ int ProblemBuilder::relocation_inliers() {
     if (relocation_res_[k].error_rad(params, &err) && err <= options_.outlier_rad) ++inliers;
   }
   return inliers;
+}
+
+void ProblemBuilder::note_window_moved(const Eigen::Matrix3d& R) {
+  int ids[capacity::kWindowSize + 1];
+  int n = 0;
+  for (int k = 0; k < window_->size(); ++k) ids[n++] = pose_id_[window_->slot_at(k)];
+  problem_->note_world_moved(ids, n, R);
 }
 
 int ProblemBuilder::oldest_frame_blocks(int* ids) const {

@@ -100,6 +100,10 @@ class ProblemBuilder {
   solver::Problem& problem() { return *problem_; }
   BlockTable& blocks() { return table_; }
   int oldest_frame_blocks(int* ids) const;
+  // The window's poses were moved together by a rotation R of the world frame (and a translation)
+  // since the last solve (Estimator::hold_gauge): the terms the problem keeps for the
+  // marginalization follow (solver::Problem::note_world_moved).
+  void note_window_moved(const Eigen::Matrix3d& R);
   int num_selected() const { return n_selected_; }
   // Of those, in one feature class: counted when chosen, because a landmark of the last solve may
   // be released before the frame's output is written (outliers, a failed alignment's restore).
