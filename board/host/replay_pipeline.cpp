@@ -370,6 +370,7 @@ void ReplayPipeline::write_estimator_stats(JsonWriter& w) const {
       .value("marginalized_old", e.marginalized_old)
       .value("marginalized_second_new", e.marginalized_second_new)
       .value("marginalization_failures", e.marginalization_failures)
+      .value("marginalizations_reused", e.marginalizations_reused)
       .value("visual_init_failures", e.visual_init_failures)
       .value("align_attempts", e.align_attempts)
       .value("align_failures", e.align_failures)

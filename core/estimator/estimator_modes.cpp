@@ -10,6 +10,7 @@
 #include "core/estimator/initializer.hpp"
 #include "core/estimator/landmark_map.hpp"
 #include "core/estimator/marginalizer.hpp"
+#include "solver/problem.hpp"
 #include "core/estimator/pnp_locator.hpp"
 #include "core/estimator/problem_builder.hpp"
 #include "core/estimator/state_blocks.hpp"
@@ -269,6 +270,8 @@ void Estimator::slide_window(EstimatorTiming* timing) {
     const int n = vio ? builder_->oldest_frame_blocks(ids) : 0;
     if (vio && !marginalizer_->adopt(builder_->problem(), builder_->blocks(), ids, n))
       ++stats_.marginalization_failures;
+    else if (vio && builder_->problem().marginalization_reused())
+      ++stats_.marginalizations_reused;
     if (mode_ != EstimatorMode::kImuOnly) {
       marginalizer_->emit_keyframe(*window_, 0, *landmarks_,
                                    static_cast<std::uint32_t>(stats_.resets + stats_.relevels), vio);

@@ -41,6 +41,7 @@ struct EstimatorStats {
   std::uint64_t marginalized_old = 0;
   std::uint64_t marginalized_second_new = 0;
   std::uint64_t marginalization_failures = 0;
+  std::uint64_t marginalizations_reused = 0;  // of marginalized_old: the solve's landmark terms taken
   std::uint64_t still_frames = 0;
   std::uint64_t still_rejected_by_vision = 0;  // IMU at rest but the images moved (uniform motion)
   std::uint64_t resets = 0;             // divergence or visual loss in VO
