@@ -290,7 +290,7 @@ class Problem {
   bool moved_rigidly(const BlockId* ids, int n, const Eigen::Matrix3d& R) const;
   void rotate_separated(const BlockId* ids, int n, const Eigen::Matrix3d& R);
   SolverStatus reuse_marginalized();
-  SolverStatus accumulate_marginalized();
+  SolverStatus accumulate_marginalized(bool kept);
   bool linearize_marginalized_landmark(int l);
   SolverStatus partition_marginal_rows(MarginalRows* rows);
   void gather_marginal_system(const MarginalRows& rows);

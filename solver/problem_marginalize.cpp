@@ -94,12 +94,14 @@ SolverStatus Problem::linearize_marginalized() {
   zero_upper(H_.m());
   b_.setZero();
   mark_touched_ = true;
-  const SolverStatus st = accumulate_marginalized();
+  const SolverStatus st = accumulate_marginalized(false);
   mark_touched_ = false;
   return st;
 }
 
-SolverStatus Problem::accumulate_marginalized() {
+// kept: the marginalized landmarks' terms are in H_, b_ and their own blocks already (they are
+// only eliminated); otherwise each is linearized first.
+SolverStatus Problem::accumulate_marginalized(bool kept) {
   double r[capacity::kMaxResidualSize];
   double c = 0.0;
   for (int q = 0; q < num_free_res_; ++q) {
@@ -110,7 +112,11 @@ SolverStatus Problem::accumulate_marginalized() {
   }
   for (int l = 0; l < num_lm_; ++l) {
     if (!marg_[lm_block_[l]]) continue;
-    if (!linearize_marginalized_landmark(l)) return SolverStatus::kInvalidInput;
+    if (kept) {
+      eliminate_landmark(l, 0.0, H_.m(), b_, false);
+    } else if (!linearize_marginalized_landmark(l)) {
+      return SolverStatus::kInvalidInput;
+    }
   }
   for (int p = 0; p < num_priors_; ++p) {
     const PriorRef& pr = priors_[p];
@@ -227,6 +233,7 @@ SolverStatus Problem::reuse_marginalized() {
   zero_upper(H_.m());
   b_.setZero();
   add_separated();
+  // The blocks the kept terms reach, as accumulating them would have marked them.
   for (int l = 0; l < num_lm_; ++l) {
     if (!marg_[lm_block_[l]]) continue;
     for (int q = lm_res_begin_[l]; q < lm_res_begin_[l + 1]; ++q) {
@@ -235,24 +242,7 @@ SolverStatus Problem::reuse_marginalized() {
     }
   }
   mark_touched_ = true;
-  double r[capacity::kMaxResidualSize];
-  double c = 0.0;
-  SolverStatus st = SolverStatus::kOk;
-  for (int q = 0; q < num_free_res_ && st == SolverStatus::kOk; ++q) {
-    const Residual& rb = residuals_[free_res_[q]];
-    if (!touches_marginalized(rb)) continue;
-    if (evaluate_residual(rb, true, r, &c)) accumulate_residual(free_res_[q], r);
-    else st = SolverStatus::kInvalidInput;
-  }
-  for (int l = 0; l < num_lm_ && st == SolverStatus::kOk; ++l)
-    if (marg_[lm_block_[l]]) eliminate_landmark(l, 0.0, H_.m(), b_, false);
-  for (int p = 0; p < num_priors_ && st == SolverStatus::kOk; ++p) {
-    const PriorRef& pr = priors_[p];
-    if (pr.fixed) continue;
-    bool hit = false;
-    for (int i = 0; i < pr.prior->num_blocks(); ++i) hit = hit || marg_[pr.blocks[i]];
-    if (hit && !linearize_prior(pr, true, &c)) st = SolverStatus::kInvalidInput;
-  }
+  const SolverStatus st = accumulate_marginalized(true);
   mark_touched_ = false;
   return st;
 }
