@@ -262,7 +262,8 @@ class Problem {
     double w[kSchurBatch];  // 1 / (damped H_ll)
     int n = 0;
   };
-  int eliminate_run(int l, double lm_scale, MatrixMap S, DenseVector& rhs, bool damp);
+  // marginalized: only landmarks marked in marg_ join the run (the marginalization's).
+  int eliminate_run(int l, double lm_scale, MatrixMap S, DenseVector& rhs, bool damp, bool marginalized = false);
   void eliminate_landmark(int l, double lm_scale, MatrixMap S, DenseVector& rhs, bool damp);
   double invert_landmark1(int l, double lm_scale, bool damp);
   bool same_segments(int l, int m) const;

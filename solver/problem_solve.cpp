@@ -313,14 +313,17 @@ void Problem::form_reduced_system(double lm_scale, bool damp) {
 // most of its frames) go through schur_update1 together, up to kSchurBatch at a time: S is read
 // and written once per batch instead of once per landmark. Each element still receives the
 // landmarks' updates one after the other in landmark order: the same doubles as one at a time.
-int Problem::eliminate_run(int l, double lm_scale, MatrixMap S, DenseVector& rhs, bool damp) {
+int Problem::eliminate_run(int l, double lm_scale, MatrixMap S, DenseVector& rhs, bool damp,
+                           bool marginalized) {
   if (lm_dim_[l] != 1) {
     eliminate_landmark_block(l, lm_scale, S, rhs, damp);
     return l + 1;
   }
   Schur1Batch batch;
   int next = l;
-  for (; next < num_lm_ && batch.n < kSchurBatch && lm_dim_[next] == 1 && same_segments(l, next); ++next) {
+  for (; next < num_lm_ && batch.n < kSchurBatch && lm_dim_[next] == 1 && same_segments(l, next) &&
+         (!marginalized || marg_[lm_block_[next]]);
+       ++next) {
     const double w = invert_landmark1(next, lm_scale, damp);
     if (w == 0.0) continue;  // skipped: touches nothing, the order of the others is kept
     batch.lm[batch.n] = next;
