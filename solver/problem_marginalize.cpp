@@ -335,7 +335,15 @@ SolverStatus Problem::schur_marginalized(int dm, int dk) {
   }
   T_.resize(dk, dm);
   T_.noalias() = Hkm_.lazyProduct(Hmm_inv_);
-  S_.m().noalias() -= T_.lazyProduct(Hkm_.transpose());
+  // The upper triangle only (the prior reads no other), each entry summed as the lazy product
+  // sums it: T(i, 0) H(j, 0) + T(i, 1) H(j, 1) + ..., then subtracted.
+  MatrixMap S = S_.m();
+  for (int j = 0; j < dk; ++j)
+    for (int i = 0; i <= j; ++i) {
+      double s = T_(i, 0) * Hkm_(j, 0);
+      for (int k = 1; k < dm; ++k) s += T_(i, k) * Hkm_(j, k);
+      S(i, j) -= s;
+    }
   rhs_.noalias() -= T_.lazyProduct(dx_);
   return SolverStatus::kOk;
 }
