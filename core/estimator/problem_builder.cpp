@@ -380,9 +380,12 @@ int ProblemBuilder::relocation_inliers() {
 }
 
 void ProblemBuilder::note_window_moved(const Eigen::Matrix3d& R) {
-  int ids[capacity::kWindowSize + 1];
+  int ids[capacity::kWindowSize + 2];
   int n = 0;
   for (int k = 0; k < window_->size(); ++k) ids[n++] = pose_id_[window_->slot_at(k)];
+  // The loop keyframe's pose is a world pose the move left where it was: listed, it fails the
+  // rigidity check and the marginalization linearizes afresh (clear_relocation rebuilds anyway).
+  if (n_relocation_ > 0) ids[n++] = relocation_id_;
   problem_->note_world_moved(ids, n, R);
 }
 
