@@ -6,6 +6,7 @@
 // the scalar formula, no contraction under -ffp-contract=off) and stay SIMD when Eigen is built
 // scalar for cross-architecture determinism (UMS_PORTABLE_FP).
 
+#include <algorithm>
 #include <cstring>
 
 #include <Eigen/Core>
@@ -56,21 +57,47 @@ inline void sub_scaled_sum(double* y, int m, const double* c, const double* cons
 // from row 0 on, added to H: the same doubles, two rows of H per packet. (Eigen's own product is
 // scalar here, EIGEN_DONT_VECTORIZE, and costs some 10 instructions per multiply-add at these
 // dynamic sizes: the IMU factor's 15-row blocks.)
-inline void add_jtj_any(double* Hb, long ld, const double* A, int ta, const double* B, int tb, int rows) {
+// add_jtj_rows: the same over rows [r0, r1) only, which gives the same doubles when the rows left
+// out hold a zero in A or in B (a zero product added to a sum, or a sum of zeros added to H,
+// changes nothing but the sign of a zero). upper (a diagonal block, A == B): only the entries
+// i <= j of column j, rounded up to a whole packet (the one lower entry written is never read).
+inline void add_jtj_rows(double* Hb, long ld, const double* A, int ta, const double* B, int tb, int r0, int r1,
+                         bool upper) {
+  if (r0 >= r1) return;
   for (int j = 0; j < tb; ++j) {
     double* col = Hb + j * ld;
+    const int end = upper ? std::min((j + 2) & ~1, ta) : ta;
     int i = 0;
-    for (; i + 2 <= ta; i += 2) {
-      Pair s = load_pair(A + i) * Pair{B[j], B[j]};
-      for (int r = 1; r < rows; ++r) s = s + load_pair(A + r * ta + i) * Pair{B[r * tb + j], B[r * tb + j]};
+    for (; i + 2 <= end; i += 2) {
+      Pair s = load_pair(A + r0 * ta + i) * Pair{B[r0 * tb + j], B[r0 * tb + j]};
+      for (int r = r0 + 1; r < r1; ++r) s = s + load_pair(A + r * ta + i) * Pair{B[r * tb + j], B[r * tb + j]};
       store_pair(col + i, load_pair(col + i) + s);
     }
-    if (i < ta) {
-      double s = A[i] * B[j];
-      for (int r = 1; r < rows; ++r) s += A[r * ta + i] * B[r * tb + j];
+    if (i < end) {
+      double s = A[r0 * ta + i] * B[r0 * tb + j];
+      for (int r = r0 + 1; r < r1; ++r) s += A[r * ta + i] * B[r * tb + j];
       col[i] += s;
     }
   }
+}
+
+inline void add_jtj_any(double* Hb, long ld, const double* A, int ta, const double* B, int tb, int rows) {
+  add_jtj_rows(Hb, ld, A, ta, B, tb, 0, rows, false);
+}
+
+// [*r0, *r1): the rows of J (rows x t, row-major) outside which every entry is zero (r0 == r1 when
+// all are). A NaN is not zero.
+inline void nonzero_rows(const double* J, int rows, int t, int* r0, int* r1) {
+  auto zero_row = [&](int r) {
+    for (int c = 0; c < t; ++c)
+      if (!(J[r * t + c] == 0.0)) return false;
+    return true;
+  };
+  int lo = 0, hi = rows;
+  while (lo < hi && zero_row(lo)) ++lo;
+  while (hi > lo && zero_row(hi - 1)) --hi;
+  *r0 = lo;
+  *r1 = hi;
 }
 
 // col[0..N) += a0 * b0 + a1 * b1: one column of a 2-row J^T J block in whole packets of 2.

@@ -13,19 +13,6 @@
 namespace ums::solver {
 namespace {
 
-// H(oa.., ob..) += Ja^T Jb for two row-major Jacobian blocks of `rows` rows. The 2 x 6 case
-// (reprojection vs pose/extrinsic) dominates and gets a fixed-size path.
-__attribute__((always_inline)) inline void add_jtj(MatrixMap H, int oa, int ob, const double* Ja, int ta, const double* Jb,
-                    int tb, int rows) {
-  if (rows == 2 && ta == 6 && tb == 6) {
-    const Eigen::Map<const Eigen::Matrix<double, 2, 6, Eigen::RowMajor>> A(Ja);
-    const Eigen::Map<const Eigen::Matrix<double, 2, 6, Eigen::RowMajor>> B(Jb);
-    H.block<6, 6>(oa, ob).noalias() += A.transpose() * B;
-    return;
-  }
-  add_jtj_any(H.data() + ob * H.outerStride() + oa, H.outerStride(), Ja, ta, Jb, tb, rows);
-}
-
 inline void add_jtr(DenseVector& b, int o, const double* J, int t, const double* r, int rows) {
   if (rows == 2 && t == 6) {
     const Eigen::Map<const Eigen::Matrix<double, 2, 6, Eigen::RowMajor>> A(J);
@@ -159,6 +146,13 @@ void Problem::accumulate_residual(int res_index, const double* r) {
 int Problem::accumulate_reduced(const Residual& rb, const double* r) {
   const int rows = rb.rows;
   int lm_j = -1;
+  // Each block's non-zero rows (the IMU factor's pose blocks have none in the bias rows): a block
+  // pair's products are summed over the rows both have, the diagonal blocks over their upper
+  // triangle; the same doubles as the whole products (double_pair.hpp, add_jtj_rows).
+  int lo[capacity::kMaxBlocksPerResidual], hi[capacity::kMaxBlocksPerResidual];
+  for (int a = 0; a < rb.num_blocks; ++a)
+    if (jac_wanted_[a]) nonzero_rows(jac_ws_[a], rows, blocks_[rb.blocks[a]].tangent, &lo[a], &hi[a]);
+  MatrixMap H = acc_H_->m();
   for (int a = 0; a < rb.num_blocks; ++a) {
     if (!jac_wanted_[a]) continue;
     const Block& ba = blocks_[rb.blocks[a]];
@@ -172,10 +166,14 @@ int Problem::accumulate_reduced(const Residual& rb, const double* r) {
       if (!jac_wanted_[c]) continue;
       const Block& bc = blocks_[rb.blocks[c]];
       if (bc.eliminate) continue;
+      const int r0 = std::max(lo[a], lo[c]), r1 = std::min(hi[a], hi[c]);
+      const bool upper = c == a;
       if (ba.index <= bc.index)
-        add_jtj(acc_H_->m(), ba.index, bc.index, jac_ws_[a], ba.tangent, jac_ws_[c], bc.tangent, rows);
+        add_jtj_rows(H.data() + bc.index * H.outerStride() + ba.index, H.outerStride(), jac_ws_[a], ba.tangent,
+                     jac_ws_[c], bc.tangent, r0, r1, upper);
       else
-        add_jtj(acc_H_->m(), bc.index, ba.index, jac_ws_[c], bc.tangent, jac_ws_[a], ba.tangent, rows);
+        add_jtj_rows(H.data() + ba.index * H.outerStride() + bc.index, H.outerStride(), jac_ws_[c], bc.tangent,
+                     jac_ws_[a], ba.tangent, r0, r1, upper);
     }
   }
   return lm_j;

@@ -1,6 +1,8 @@
 #include "solver/double_pair.hpp"
 
 #include <catch2/catch.hpp>
+#include <algorithm>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -67,6 +69,64 @@ TEST_CASE("add_jtj_any gives the doubles of the row-ordered dot products", "[sol
   add_jtj_any(h, 2, A, 2, B, 1, 2);
   CHECK(h[0] == 23.5);
   CHECK(h[1] == 33.5);
+}
+
+TEST_CASE("add_jtj_rows: rows holding a zero factor and the lower triangle left out, the same doubles",
+          "[solver][double_pair]") {
+  std::mt19937 rng(13);
+  const long ld = 10;
+  const int rows = 15;
+  int skipped = 0;
+  for (int ta : {6, 9}) {
+    for (const bool upper : {false, true}) {
+      const int tb = upper ? ta : 9;
+      // A zero outside rows [2, 11), B outside [5, 15): the products live on [5, 11).
+      std::vector<double> A = random_values(rng, rows * ta);
+      std::vector<double> B = upper ? A : random_values(rng, rows * tb);
+      for (int r = 0; r < rows; ++r) {
+        for (int c = 0; c < ta; ++c)
+          if (r < 2 || r >= 11) A[r * ta + c] = 0.0;
+        for (int c = 0; c < tb; ++c)
+          if (!upper && r < 5) B[r * tb + c] = 0.0;
+      }
+      if (upper) B = A;
+      int a0 = -1, a1 = -1, b0 = -1, b1 = -1;
+      nonzero_rows(A.data(), rows, ta, &a0, &a1);
+      nonzero_rows(B.data(), rows, tb, &b0, &b1);
+      CHECK(a0 == 2);
+      CHECK(a1 == 11);
+      CHECK(b0 == (upper ? 2 : 5));
+      CHECK(b1 == (upper ? 11 : 15));
+      std::vector<double> H = random_values(rng, static_cast<int>(ld) * tb);
+      std::vector<double> ref = H;
+      add_jtj_any(ref.data(), ld, A.data(), ta, B.data(), tb, rows);
+      add_jtj_rows(H.data(), ld, A.data(), ta, B.data(), tb, std::max(a0, b0), std::min(a1, b1), upper);
+      for (int j = 0; j < tb; ++j)
+        for (int i = 0; i < ld; ++i) {
+          const std::size_t k = static_cast<std::size_t>(j * ld + i);
+          if (i < ta && (!upper || i <= j)) {
+            REQUIRE(H[k] == ref[k]);
+          } else if (i >= ta) {
+            REQUIRE(H[k] == ref[k]);  // past the block: untouched by both
+          } else {
+            ++skipped;  // below the diagonal of a diagonal block: never read
+          }
+        }
+    }
+  }
+  CHECK(skipped > 0);
+  // All-zero and NaN rows: an empty range adds nothing; a NaN row counts as non-zero.
+  double J[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+  int r0 = -1, r1 = -1;
+  nonzero_rows(J, 3, 2, &r0, &r1);
+  CHECK(r0 == r1);
+  J[3] = std::numeric_limits<double>::quiet_NaN();
+  nonzero_rows(J, 3, 2, &r0, &r1);
+  CHECK(r0 == 1);
+  CHECK(r1 == 2);
+  double h = 1.5;
+  add_jtj_rows(&h, 1, J, 1, J, 1, 2, 2, false);
+  CHECK(h == 1.5);
 }
 
 }  // namespace
