@@ -128,12 +128,14 @@ class Problem {
   // not change in between. Kept until clear(); n = 0 removes it.
   SolverStatus set_marginalization_hint(const BlockId* ids, int n);
   // The caller moved pose blocks ids[0..n) together since the last linearization, by one rigid
-  // transform of their world frame (p' = R p + t, q' = R q; other blocks as it pleases: the kept
-  // landmark terms read poses, extrinsics and landmarks only). The kept terms follow: in the
+  // transform of their world frame (p' = R p + t, q' = R q). The kept terms follow: in the
   // tangent p' = R p the Jacobians' position columns are J R^T, so those rows and columns of H,
   // b and V are rotated by R, and the moved values become the ones the terms were taken at. A
-  // move that was not rigid (1e-9 relative) or not by R drops the terms. kInvalidInput: a bad id
-  // or a block that is not a pose.
+  // move that was not rigid (1e-9 relative) or not by R drops the terms. Every world-frame pose
+  // the hinted landmarks' residuals read must be listed, moved or not (one left in place then
+  // fails the check); body-frame poses (extrinsics) are not listed, and any other block that
+  // changed is caught by marginalize()'s comparison. kInvalidInput: a bad or repeated id, or a
+  // block that is not a pose.
   SolverStatus note_world_moved(const BlockId* ids, int n, const Eigen::Matrix3d& R);
   // The last marginalize() took the kept terms (for statistics and tests).
   bool marginalization_reused() const { return marg_reused_; }

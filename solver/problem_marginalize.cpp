@@ -28,10 +28,9 @@ SolverStatus Problem::set_marginalization_hint(const BlockId* ids, int n) {
 }
 
 SolverStatus Problem::marginalize(const BlockId* ids, int n, MarginalPrior* out) {
+  marg_reused_ = false;
   if (out == nullptr || n < 0) return SolverStatus::kInvalidInput;
-  // A structural change since the last linearization (prepared_ false) leaves its terms stale.
-  if (!prepared_) sep_valid_ = false;
-  const SolverStatus st = prepare();
+  const SolverStatus st = prepare();  // a new layout drops the kept terms
   if (st != SolverStatus::kOk) return st;
   const SolverStatus ms = marginalize_prepared(ids, n, out);
   sep_valid_ = false;  // H_ and the landmark terms now hold the marginal system's
@@ -42,12 +41,12 @@ SolverStatus Problem::marginalize(const BlockId* ids, int n, MarginalPrior* out)
 }
 
 SolverStatus Problem::marginalize_prepared(const BlockId* ids, int n, MarginalPrior* out) {
-  marg_reused_ = false;
   SolverStatus st = select_marginalized(ids, n);
   if (st != SolverStatus::kOk) return st;
-  marg_reused_ = separated_current();
-  st = marg_reused_ ? reuse_marginalized() : linearize_marginalized();
+  const bool reuse = separated_current();
+  st = reuse ? reuse_marginalized() : linearize_marginalized();
   if (st != SolverStatus::kOk) return st;
+  marg_reused_ = reuse;
   MarginalRows rows;
   st = partition_marginal_rows(&rows);
   if (st != SolverStatus::kOk) return st;
@@ -162,9 +161,12 @@ bool Problem::block_as_linearized(int i) const {
 
 SolverStatus Problem::note_world_moved(const BlockId* ids, int n, const Eigen::Matrix3d& R) {
   if (n < 0 || (n > 0 && ids == nullptr)) return SolverStatus::kInvalidInput;
-  for (int k = 0; k < n; ++k)
+  for (int k = 0; k < n; ++k) {
     if (ids[k] < 0 || ids[k] >= num_blocks_ || blocks_[ids[k]].manifold != ManifoldType::kPose)
       return SolverStatus::kInvalidInput;
+    for (int m = 0; m < k; ++m)
+      if (ids[m] == ids[k]) return SolverStatus::kInvalidInput;  // it would be turned twice
+  }
   if (!sep_valid_ || !prepared_) return SolverStatus::kOk;
   if (!moved_rigidly(ids, n, R)) {
     sep_valid_ = false;

@@ -9,6 +9,7 @@ namespace ums::solver {
 
 SolverStatus Problem::prepare() {
   if (prepared_) return SolverStatus::kOk;
+  sep_valid_ = false;  // the kept marginalization terms belong to the layout being replaced
   SolverStatus st = order_blocks();
   if (st != SolverStatus::kOk) return st;
   group_residuals();

@@ -152,6 +152,19 @@ TEST_CASE("Marginalization hint: anything changed since the last linearization f
     marginalize(s);
     CHECK_FALSE(s.problem->marginalization_reused());
   }
+  SECTION("a new layout prepared by another call in between (evaluate_cost)") {
+    // Values and landmarks unchanged, rows moved: the terms of the old layout must not be taken.
+    Window s = make_window(true);
+    REQUIRE(s.problem->set_marginalization_hint(s.marg.data(), static_cast<int>(s.marg.size())) == SolverStatus::kOk);
+    solve(s, 10);
+    REQUIRE(s.problem->set_constant(1, true) == SolverStatus::kOk);  // pose 1: the rows after it move
+    double cost = 0.0;
+    REQUIRE(s.problem->evaluate_cost(&cost) == SolverStatus::kOk);
+    const auto after = marginalize(s);
+    CHECK_FALSE(s.problem->marginalization_reused());
+    const auto fresh = marginalize(s);
+    check_same_prior(*after, *fresh);
+  }
 }
 
 TEST_CASE("Marginalization hint: a rigid move of the poses after the solve is followed",
@@ -207,6 +220,10 @@ TEST_CASE("Marginalization hint: bad ids are refused, hinted passes allocate not
   CHECK(s.problem->set_marginalization_hint(nullptr, 1) == SolverStatus::kInvalidInput);
   CHECK(s.problem->note_world_moved(speed_bias, 1, I) == SolverStatus::kInvalidInput);
   CHECK(s.problem->note_world_moved(bad, 1, I) == SolverStatus::kInvalidInput);
+  const BlockId twice[2] = {1, 1};  // it would be turned twice
+  CHECK(s.problem->note_world_moved(twice, 2, I) == SolverStatus::kInvalidInput);
+  CHECK(s.problem->marginalize(s.marg.data(), static_cast<int>(s.marg.size()), nullptr) == SolverStatus::kInvalidInput);
+  CHECK_FALSE(s.problem->marginalization_reused());
   REQUIRE(s.problem->set_marginalization_hint(s.marg.data(), static_cast<int>(s.marg.size())) == SolverStatus::kOk);
   std::vector<BlockId> poses;
   for (int i = 0; i < s.F; ++i) poses.push_back(i);
