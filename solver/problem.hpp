@@ -232,6 +232,8 @@ class Problem {
   // Landmark l's residuals at the current values (cost into *total, values into kept), with
   // jacobians accumulated (into Hsep_, bsep_ when hinted: hinted_landmark()).
   bool linearize_landmark(int l, bool jacobians, double* total, double* kept);
+  // Where residual k's values go in the kept buffer `kept` (nullptr: not kept).
+  double* kept_slot(double* kept, int k) const { return kept != nullptr && kept_off_[k] >= 0 ? kept + kept_off_[k] : nullptr; }
   bool hinted_landmark(int l) const { return hint_[lm_block_[l]] && !blocks_[lm_block_[l]].constant; }
   // H_ += Hsep_, b_ += bsep_ over the rows landmarks couple to (upper triangle).
   void add_separated();

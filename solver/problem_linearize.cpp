@@ -286,9 +286,8 @@ void Problem::zero_linear_system() {
   zero_upper(H_.m());
   b_.setZero();
   if (hinted_) {
-    MatrixMap Hs = Hsep_.m();
-    for (int j = 0; j < n_front_; ++j) std::fill(Hs.data() + j * Hs.outerStride(), Hs.data() + j * Hs.outerStride() + j + 1, 0.0);
-    for (int i = 0; i < n_front_; ++i) bsep_[i] = 0.0;
+    zero_upper(MatrixMap(Hsep_.m().data(), n_red_, n_front_));  // the rows landmarks reach
+    bsep_.head(n_front_).setZero();
   }
   for (int l = 0; l < num_lm_; ++l) {
     for (int i = 0; i < 9; ++i) Hll_[l][i] = 0.0;
@@ -319,8 +318,7 @@ bool Problem::linearize(bool jacobians, double* cost) {
   double* kept = kept_write_ >= 0 ? kept_[kept_write_] : nullptr;
   for (int q = 0; q < num_free_res_; ++q) {
     const int k = free_res_[q];
-    if (!evaluate_residual(residuals_[k], jacobians, r, &c, kept != nullptr && kept_off_[k] >= 0 ? kept + kept_off_[k] : nullptr))
-      return false;
+    if (!evaluate_residual(residuals_[k], jacobians, r, &c, kept_slot(kept, k))) return false;
     total += c;
     if (jacobians) accumulate_residual(k, r);
   }
@@ -355,8 +353,7 @@ bool Problem::linearize_landmark(int l, bool jacobians, double* total, double* k
   if (lifted) begin_lift(l);
   for (int q = lm_res_begin_[l]; q < lm_res_begin_[l + 1]; ++q) {
     const int k = lm_res_[q];
-    if (!evaluate_residual(residuals_[k], jacobians, r, &c, kept != nullptr && kept_off_[k] >= 0 ? kept + kept_off_[k] : nullptr))
-      return false;
+    if (!evaluate_residual(residuals_[k], jacobians, r, &c, kept_slot(kept, k))) return false;
     *total += c;
     if (jacobians) accumulate_residual(k, r);
   }

@@ -50,6 +50,15 @@ SolverSummary solve(Window& s, int max_iterations) {
   return sum;
 }
 
+// The window with frame 0's blocks hinted, solved.
+Window hinted(bool lifts, int max_iterations, SolverSummary* summary = nullptr) {
+  Window s = make_window(lifts);
+  REQUIRE(s.problem->set_marginalization_hint(s.marg.data(), static_cast<int>(s.marg.size())) == SolverStatus::kOk);
+  const SolverSummary sum = solve(s, max_iterations);
+  if (summary != nullptr) *summary = sum;
+  return s;
+}
+
 std::unique_ptr<MarginalPrior> marginalize(Window& s) {
   auto prior = std::make_unique<MarginalPrior>();
   REQUIRE(s.problem->marginalize(s.marg.data(), static_cast<int>(s.marg.size()), prior.get()) == SolverStatus::kOk);
@@ -92,9 +101,8 @@ TEST_CASE("Marginalization hint: the kept terms give the prior of a fresh linear
           "[solver][problem][marginalization]") {
   for (const bool lifts : {false, true}) {
     INFO("point lifts " << lifts);
-    Window s = make_window(lifts);
-    REQUIRE(s.problem->set_marginalization_hint(s.marg.data(), static_cast<int>(s.marg.size())) == SolverStatus::kOk);
-    const SolverSummary sum = solve(s, 10);
+    SolverSummary sum;
+    Window s = hinted(lifts, 10, &sum);
     CHECK(sum.termination != Termination::kMaxIterations);
     CHECK(sum.initial_cost > 5.0 * sum.final_cost);
     const auto kept = marginalize(s);
@@ -120,17 +128,14 @@ TEST_CASE("Marginalization hint: the kept terms give the prior of a fresh linear
 TEST_CASE("Marginalization hint: anything changed since the last linearization falls back",
           "[solver][problem][marginalization]") {
   SECTION("the solve ended on an accepted step it did not linearize at") {
-    Window s = make_window(true);
-    REQUIRE(s.problem->set_marginalization_hint(s.marg.data(), static_cast<int>(s.marg.size())) == SolverStatus::kOk);
-    const SolverSummary sum = solve(s, 1);
+    SolverSummary sum;
+    Window s = hinted(true, 1, &sum);
     REQUIRE(sum.successful_steps == 1);
     marginalize(s);
     CHECK_FALSE(s.problem->marginalization_reused());
   }
   SECTION("a marginalized landmark's value moved by one ulp") {
-    Window s = make_window(true);
-    REQUIRE(s.problem->set_marginalization_hint(s.marg.data(), static_cast<int>(s.marg.size())) == SolverStatus::kOk);
-    solve(s, 10);
+    Window s = hinted(true, 10);
     const int l = s.marg.back() - (2 * s.F + 1);
     s.w->inv_depth[l] = std::nextafter(s.w->inv_depth[l], 1.0);
     marginalize(s);
@@ -145,18 +150,14 @@ TEST_CASE("Marginalization hint: anything changed since the last linearization f
     CHECK_FALSE(s.problem->marginalization_reused());
   }
   SECTION("a block made constant after the solve") {
-    Window s = make_window(true);
-    REQUIRE(s.problem->set_marginalization_hint(s.marg.data(), static_cast<int>(s.marg.size())) == SolverStatus::kOk);
-    solve(s, 10);
+    Window s = hinted(true, 10);
     REQUIRE(s.problem->set_constant(2 * s.F, true) == SolverStatus::kOk);  // the extrinsic
     marginalize(s);
     CHECK_FALSE(s.problem->marginalization_reused());
   }
   SECTION("a new layout prepared by another call in between (evaluate_cost)") {
     // Values and landmarks unchanged, rows moved: the terms of the old layout must not be taken.
-    Window s = make_window(true);
-    REQUIRE(s.problem->set_marginalization_hint(s.marg.data(), static_cast<int>(s.marg.size())) == SolverStatus::kOk);
-    solve(s, 10);
+    Window s = hinted(true, 10);
     REQUIRE(s.problem->set_constant(1, true) == SolverStatus::kOk);  // pose 1: the rows after it move
     double cost = 0.0;
     REQUIRE(s.problem->evaluate_cost(&cost) == SolverStatus::kOk);
@@ -173,10 +174,8 @@ TEST_CASE("Marginalization hint: a rigid move of the poses after the solve is fo
                             Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitX()).toRotationMatrix();
   const Eigen::Vector3d t(1.0, -2.0, 0.5);
   std::vector<BlockId> poses;
-  Window s = make_window(true);
+  Window s = hinted(true, 10);
   for (int i = 0; i < s.F; ++i) poses.push_back(i);
-  REQUIRE(s.problem->set_marginalization_hint(s.marg.data(), static_cast<int>(s.marg.size())) == SolverStatus::kOk);
-  solve(s, 10);
   SECTION("moved by R, noted: the kept terms rotated equal a fresh linearization there") {
     move_world(*s.w, R, t);
     REQUIRE(s.problem->note_world_moved(poses.data(), s.F, R) == SolverStatus::kOk);
