@@ -110,9 +110,12 @@ __attribute__((always_inline)) inline bool BearingResidual::project(const Eigen:
   if (!(n > 1e-9) || P_ct.dot(b_target_) <= 0.0) return false;
   const double inv_n = 1.0 / n;
   const Eigen::Vector3d u = P_ct * inv_n;
-  Eigen::Map<Eigen::Vector2d> r(residuals);
-  r = weight_ * (tangent_.transpose() * (u - b_target));
-  if (!r.allFinite()) return false;
+  // Written out: Eigen kept the 2-vector assignment out of line (a call per evaluation).
+  const Eigen::Vector3d e = u - b_target;
+  // Eigen folds the scalar into the product's left factor: the same here, for the same doubles.
+  residuals[0] = (weight_ * tangent_.col(0)).dot(e);
+  residuals[1] = (weight_ * tangent_.col(1)).dot(e);
+  if (!std::isfinite(residuals[0]) || !std::isfinite(residuals[1])) return false;
   // B^T (I - u u^T) = B^T - (B^T u) u^T.
   if (D != nullptr) *D = (weight_ * inv_n) * (tangent_.transpose() - (tangent_.transpose() * u) * u.transpose());
   return true;
