@@ -337,7 +337,7 @@ void Problem::build_tail_envelope() {
   for (int j = n_front_; j < n_red_; ++j) env += j - env_first_[j] + 1;
   // Worth it when the tail's envelope is well below its dense triangle (block-tridiagonal IMU
   // chain: ~2 blocks per column, 26 % of the triangle for 11 frames, 53 % for 5); a dense tail
-  // (e.g. a prior over every speed-bias) goes through Eigen's blocked LLT as a whole.
+  // (e.g. a prior over every speed-bias) is factored as a whole.
   split_ = n_front_ > 0 && m > 0 && 10 * env <= 3L * m * (m + 1);
 }
 

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <limits>
 
+#include "solver/dense_cholesky.hpp"
 #include "solver/double_pair.hpp"
 #include "solver/finite.hpp"
 
@@ -498,8 +499,9 @@ void Problem::add_landmark_model_terms(int l, double lm_scale, bool damp, double
 
 // S = [A B; B^T C] with A the landmark-coupled front rows and C the tail. When C is sparse (the
 // IMU chain makes it block-tridiagonal) it is eliminated first: C = U^T U by an envelope Cholesky,
-// X = U^-T B^T, A' = A - X^T X (dense rank update), A' factored by Eigen's LLT. The dense
-// factorization then runs on the front rows only (72 instead of 171 in the VIO window). Everything
+// X = U^-T B^T, A' = A - X^T X (dense rank update), A' factored by cholesky_upper
+// (dense_cholesky.hpp). The dense factorization then runs on the front rows only (72 instead of
+// 171 in the VIO window). Everything
 // is in place in S's upper triangle: U over C, X^T over B.
 bool Problem::factor_and_solve() {
   if (!split_) return factor_and_solve_dense();
@@ -507,13 +509,10 @@ bool Problem::factor_and_solve() {
   MatrixMap S = S_.m();
   const int nf = n_front_;
   subtract_tail_products();
-  // The dense LLT of the front rows.
-  Eigen::Ref<Eigen::MatrixXd> A_ref(S.topLeftCorner(nf, nf));
-  Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>, Eigen::Upper> llt(A_ref);
-  if (llt.info() != Eigen::Success) return false;
+  // The dense Cholesky of the front rows.
+  if (!cholesky_upper(S.data(), S.outerStride(), nf)) return false;
   solve_tail_forward();
-  auto xa = dx_.head(nf);
-  llt.solveInPlace(xa);
+  cholesky_solve_upper(S.data(), S.outerStride(), nf, dx_.data());
   solve_tail_backward();
   return dx_.allFinite();
 }
@@ -547,14 +546,12 @@ void Problem::subtract_tail_products() {
   }
 }
 
-// One LLT of the whole reduced system.
+// One Cholesky of the whole reduced system (a dense tail: no split, prepare()).
 bool Problem::factor_and_solve_dense() {
   MatrixMap S = S_.m();
-  Eigen::Ref<Eigen::MatrixXd> S_ref(S);
-  Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>, Eigen::Upper> llt(S_ref);
-  if (llt.info() != Eigen::Success) return false;
+  if (!cholesky_upper(S.data(), S.outerStride(), n_red_)) return false;
   dx_ = -rhs_;
-  llt.solveInPlace(dx_);
+  cholesky_solve_upper(S.data(), S.outerStride(), n_red_, dx_.data());
   return dx_.allFinite();
 }
 
