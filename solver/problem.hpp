@@ -272,6 +272,20 @@ class Problem {
   double invert_landmark1(int l, double lm_scale, bool damp);
   bool same_segments(int l, int m) const;
   void schur_update1(const Schur1Batch& batch, MatrixMap S, DenseVector& rhs) const;
+  // Every landmark 1-dof: eliminated in chunks of kDenseSchurRows through dense rows (dense_v_).
+  static constexpr int kDenseSchurRows = 32;
+  bool dense_schur_applies() const;
+  // marginalized: only the landmarks marked in marg_ (the marginalization's, from kept terms).
+  void eliminate_dense(double lm_scale, MatrixMap S, DenseVector& rhs, bool damp, bool marginalized = false);
+  void gather_dense_row(int l, double w, int m, DenseVector& rhs);
+  void schur_dense_update(int n, MatrixMap S) const;
+  struct DenseRow {
+    const double* v;  // the row's v
+    const double* u;  // its u packets from the tile's first column on
+  };
+  template <int NR, int NC>
+  void schur_dense_tile(int i0, int j0, const DenseRow* rows, int n, MatrixMap S) const;
+  void schur_dense_edge(int j, int n, MatrixMap S) const;
   void eliminate_landmark_block(int l, double lm_scale, MatrixMap S, DenseVector& rhs, bool damp);
   // Factors S_ and solves S_ dx_ = -rhs_ (upper triangle of S_ read, overwritten); false on failure.
   bool factor_and_solve();
@@ -372,6 +386,12 @@ class Problem {
   DenseVector scale_red_;
   DenseVector d_red_;  // LM diagonal of the reduced blocks for the current step
   double dl_[capacity::kMaxEliminatedBlocks][3] = {};
+  // eliminate_dense(): one chunk of landmarks' couplings as dense rows over the front rows, v and
+  // u = w v (zero outside the landmark's segments; u's entries doubled into packets), and the first
+  // row each can be non-zero in.
+  alignas(16) double dense_v_[kDenseSchurRows][capacity::kMaxReducedDim] = {};
+  alignas(16) double dense_u_[kDenseSchurRows][2 * capacity::kMaxReducedDim] = {};  // u(j) twice: a packet
+  int dense_lo_[kDenseSchurRows] = {};
   double winv_[capacity::kMaxEliminatedBlocks][9] = {};  // (H_ll + D)^-1 for e > 1
   double min_diag_ = 1e-6;
   double max_diag_ = 1e32;

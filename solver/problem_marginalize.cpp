@@ -109,14 +109,18 @@ SolverStatus Problem::accumulate_marginalized(bool kept) {
     if (!evaluate_residual(rb, true, r, &c)) return SolverStatus::kInvalidInput;
     accumulate_residual(free_res_[q], r);
   }
-  for (int l = 0; l < num_lm_;) {
-    if (!marg_[lm_block_[l]]) {
-      ++l;
-    } else if (kept) {
-      // All their terms are in: runs of them at once (each element still sums in landmark order).
-      l = eliminate_run(l, 0.0, H_.m(), b_, false, true);
-    } else if (!linearize_marginalized_landmark(l++)) {
-      return SolverStatus::kInvalidInput;
+  if (kept && dense_schur_applies()) {
+    // All their terms are in: eliminated together (each element still sums in landmark order).
+    eliminate_dense(0.0, H_.m(), b_, false, true);
+  } else {
+    for (int l = 0; l < num_lm_;) {
+      if (!marg_[lm_block_[l]]) {
+        ++l;
+      } else if (kept) {
+        l = eliminate_run(l, 0.0, H_.m(), b_, false, true);
+      } else if (!linearize_marginalized_landmark(l++)) {
+        return SolverStatus::kInvalidInput;
+      }
     }
   }
   for (int p = 0; p < num_priors_; ++p) {

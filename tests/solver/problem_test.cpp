@@ -624,6 +624,89 @@ class AffineResidual final : public ResidualFunction {
   Eigen::VectorXd c_;
 };
 
+// 1-dof landmarks (the dense Schur path, problem_solve.cpp eliminate_dense) over reduced blocks of
+// the given sizes, each landmark seen by a random subset of them (gaps between its segments): one
+// Gauss-Newton step against a dense solve of the full system.
+void check_dense_schur(const std::vector<int>& red_size, int n_lm, std::uint32_t seed) {
+  bench::Rng rng(seed);
+  auto randm = [&](int r, int c) {
+    Eigen::MatrixXd m(r, c);
+    for (int i = 0; i < r; ++i)
+      for (int j = 0; j < c; ++j) m(i, j) = rng.normal();
+    return m;
+  };
+  const int nb = static_cast<int>(red_size.size());
+  std::vector<int> col(static_cast<std::size_t>(nb), 0);
+  int dim_red = 0;
+  for (int k = 0; k < nb; ++k) {
+    col[static_cast<std::size_t>(k)] = dim_red;
+    dim_red += red_size[static_cast<std::size_t>(k)];
+  }
+  std::vector<std::vector<double>> x_red(static_cast<std::size_t>(nb));
+  std::vector<double> x_lm(static_cast<std::size_t>(n_lm), 0.0);
+  auto problem = std::make_unique<Problem>();
+  std::vector<BlockId> red_id(static_cast<std::size_t>(nb)), lm_id(static_cast<std::size_t>(n_lm));
+  for (int k = 0; k < nb; ++k) {
+    x_red[static_cast<std::size_t>(k)].assign(static_cast<std::size_t>(red_size[static_cast<std::size_t>(k)]), 0.0);
+    REQUIRE(problem->add_euclidean_block(x_red[static_cast<std::size_t>(k)].data(), red_size[static_cast<std::size_t>(k)],
+                                         &red_id[static_cast<std::size_t>(k)]) == SolverStatus::kOk);
+  }
+  for (int l = 0; l < n_lm; ++l)
+    REQUIRE(problem->add_landmark_block(&x_lm[static_cast<std::size_t>(l)], 1, &lm_id[static_cast<std::size_t>(l)]) == SolverStatus::kOk);
+  std::vector<std::unique_ptr<AffineResidual>> res;
+  std::vector<Eigen::MatrixXd> Jrows;
+  std::vector<Eigen::VectorXd> rrows;
+  for (int l = 0; l < n_lm; ++l) {
+    int seen = 0;
+    for (int k = 0; k < nb; ++k) {
+      // Each block with probability 0.6, at least two per landmark.
+      if (rng.normal() < -0.25 && !(k >= nb - 2 && seen < 2)) continue;
+      ++seen;
+      const int t = red_size[static_cast<std::size_t>(k)];
+      const Eigen::MatrixXd A = randm(2, t), B = randm(2, 1);
+      Eigen::VectorXd c(2);
+      c << rng.normal(), rng.normal();
+      res.push_back(std::make_unique<AffineResidual>(A, B, c));
+      REQUIRE(problem->add_residual(res.back().get(), RobustLoss::trivial(),
+                                    {red_id[static_cast<std::size_t>(k)], lm_id[static_cast<std::size_t>(l)]}) == SolverStatus::kOk);
+      Eigen::MatrixXd J = Eigen::MatrixXd::Zero(2, dim_red + n_lm);
+      J.block(0, col[static_cast<std::size_t>(k)], 2, t) = A;
+      J.col(dim_red + l) = B;
+      Jrows.push_back(J);
+      rrows.push_back(c);
+    }
+  }
+  Eigen::MatrixXd Jd(2 * static_cast<int>(Jrows.size()), dim_red + n_lm);
+  Eigen::VectorXd rd(Jd.rows());
+  for (std::size_t i = 0; i < Jrows.size(); ++i) {
+    Jd.middleRows(2 * static_cast<int>(i), 2) = Jrows[i];
+    rd.segment(2 * static_cast<int>(i), 2) = rrows[i];
+  }
+  const Eigen::VectorXd expected = -(Jd.transpose() * Jd).ldlt().solve(Jd.transpose() * rd);
+  SolverSummary sum;
+  REQUIRE(usable(problem->solve(one_step(Method::kGaussNewton), &sum)));
+  double worst = 0.0;
+  for (int k = 0; k < nb; ++k)
+    for (int i = 0; i < red_size[static_cast<std::size_t>(k)]; ++i)
+      worst = std::max(worst, std::abs(x_red[static_cast<std::size_t>(k)][static_cast<std::size_t>(i)] -
+                                       expected[col[static_cast<std::size_t>(k)] + i]));
+  for (int l = 0; l < n_lm; ++l)
+    worst = std::max(worst, std::abs(x_lm[static_cast<std::size_t>(l)] - expected[dim_red + l]));
+  INFO("front rows " << dim_red << ", landmarks " << n_lm << ": max |x - x_dense| " << worst);
+  CHECK(expected.lpNorm<Eigen::Infinity>() > 1e-3);
+  CHECK(worst < 1e-10 * (1.0 + expected.lpNorm<Eigen::Infinity>()));
+}
+
+TEST_CASE("1-dof landmarks with gaps, front rows of every size mod 4, several chunks: Schur step = dense solve",
+          "[solver][problem]") {
+  // 24, 22 (a last pair of columns), 23 (and an odd last column), 17 rows; 12 to 75 landmarks
+  // (kDenseSchurRows = 32 per chunk).
+  check_dense_schur({6, 6, 6, 6}, 40, 3);
+  check_dense_schur({6, 6, 6, 4}, 75, 4);
+  check_dense_schur({6, 6, 6, 4, 1}, 33, 5);
+  check_dense_schur({5, 6, 6}, 12, 6);
+}
+
 TEST_CASE("Eliminated blocks of 2 and 3 dofs and odd block sizes: Schur step = dense solve",
           "[solver][problem]") {
   bench::Rng rng(21);
