@@ -1,8 +1,9 @@
 #pragma once
 // Compile-time capacities of the solver. The solver sits below core/ (core -> solver), so it
 // keeps its own capacities here instead of core/common/capacity.hpp; core chooses runtime sizes
-// at or below these. One Problem is about 4.3 MB at these values (residual records 1 MB, landmark
-// couplings 1 MB, three kMaxReducedDim^2 matrices 0.9 MB); create it once at start-up.
+// at or below these. One Problem is about 4.9 MB at these values (residual records 1 MB, landmark
+// couplings 1 MB, four kMaxReducedDim^2 matrices 1.2 MB; docs/solver.md, "Memory"); create it once
+// at start-up.
 
 namespace ums::solver::capacity {
 
