@@ -272,20 +272,13 @@ class Problem {
   double invert_landmark1(int l, double lm_scale, bool damp);
   bool same_segments(int l, int m) const;
   void schur_update1(const Schur1Batch& batch, MatrixMap S, DenseVector& rhs) const;
-  // Every landmark 1-dof: eliminated in chunks of kDenseSchurRows through dense rows (dense_v_).
+  // Every landmark 1-dof: eliminated in chunks of kDenseSchurRows through dense rows (dense_v_,
+  // dense_schur.hpp).
   static constexpr int kDenseSchurRows = 32;
-  bool dense_schur_applies() const;
+  bool dense_schur_applies() const { return all_lm1_; }
   // marginalized: only the landmarks marked in marg_ (the marginalization's, from kept terms).
   void eliminate_dense(double lm_scale, MatrixMap S, DenseVector& rhs, bool damp, bool marginalized = false);
   void gather_dense_row(int l, double w, int m, DenseVector& rhs);
-  void schur_dense_update(int n, MatrixMap S) const;
-  struct DenseRow {
-    const double* v;  // the row's v
-    const double* u;  // its u packets from the tile's first column on
-  };
-  template <int NR, int NC>
-  void schur_dense_tile(int i0, int j0, const DenseRow* rows, int n, MatrixMap S) const;
-  void schur_dense_edge(int j, int n, MatrixMap S) const;
   void eliminate_landmark_block(int l, double lm_scale, MatrixMap S, DenseVector& rhs, bool damp);
   // Factors S_ and solves S_ dx_ = -rhs_ (upper triangle of S_ read, overwritten); false on failure.
   bool factor_and_solve();
@@ -392,6 +385,7 @@ class Problem {
   alignas(16) double dense_v_[kDenseSchurRows][capacity::kMaxReducedDim] = {};
   alignas(16) double dense_u_[kDenseSchurRows][2 * capacity::kMaxReducedDim] = {};  // u(j) twice: a packet
   int dense_lo_[kDenseSchurRows] = {};
+  bool all_lm1_ = false;  // prepare(): every landmark slot is 1-dof
   double winv_[capacity::kMaxEliminatedBlocks][9] = {};  // (H_ll + D)^-1 for e > 1
   double min_diag_ = 1e-6;
   double max_diag_ = 1e32;

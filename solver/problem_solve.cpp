@@ -9,6 +9,7 @@
 #include <limits>
 
 #include "solver/dense_cholesky.hpp"
+#include "solver/dense_schur.hpp"
 #include "solver/double_pair.hpp"
 #include "solver/finite.hpp"
 
@@ -415,20 +416,11 @@ void Problem::schur_update1(const Schur1Batch& batch, MatrixMap S, DenseVector& 
   }
 }
 
-// Every landmark 1-dof (the estimator's inverse depths, the benchmark's): the Schur complement
-// as dense rank updates of the front rows, whatever segments each landmark has.
-bool Problem::dense_schur_applies() const {
-  for (int l = 0; l < num_lm_; ++l)
-    if (lm_dim_[l] != 1) return false;
-  return true;
-}
-
 // S -= sum_l w_l v_l v_l^T, rhs -= sum_l w_l g_l v_l, landmark after landmark in slot order as
 // eliminate_run does, so every element receives the same terms in the same order: the same doubles
-// (a landmark's exact zeros outside its segments change nothing). The landmarks go in chunks of
-// dense rows (v and u = w v over the front rows), and each 4 x 4 tile of S's upper triangle takes
-// a chunk's updates while it sits in registers: S is read and written once per chunk instead of
-// once per run of landmarks with equal segments, which in a sliding window are short.
+// (dense_schur.hpp). The landmarks go in chunks of dense rows, and S is read and written once per
+// chunk instead of once per run of landmarks with equal segments, which in a sliding window are
+// short.
 void Problem::eliminate_dense(double lm_scale, MatrixMap S, DenseVector& rhs, bool damp, bool marginalized) {
   for (int l = 0; l < num_lm_;) {
     int n = 0;
@@ -438,7 +430,13 @@ void Problem::eliminate_dense(double lm_scale, MatrixMap S, DenseVector& rhs, bo
       if (w == 0.0) continue;  // skipped: touches nothing
       gather_dense_row(l, w, n++, rhs);
     }
-    schur_dense_update(n, S);
+    const double* v[kDenseSchurRows];
+    const double* u2[kDenseSchurRows];
+    for (int m = 0; m < n; ++m) {
+      v[m] = dense_v_[m];
+      u2[m] = dense_u_[m];
+    }
+    dense_schur_update(S.data(), S.outerStride(), n_front_, DenseSchurRows{n, v, u2, dense_lo_});
   }
 }
 
@@ -464,63 +462,6 @@ void Problem::gather_dense_row(int l, double w, int m, DenseVector& rhs) {
   }
   for (; at < n_front_; ++at) v[at] = u[2 * at] = u[2 * at + 1] = 0.0;
   dense_lo_[m] = s1 > s0 ? seg_row_[s0] : n_front_;
-}
-
-// The upper triangle of S's front rows, minus the n rows' products: per block of 4 (or, at the
-// end, 2) columns the rows that reach it (their first non-zero row before its end; the others
-// hold exact zeros there), then tiles of 4 (or 2) rows down to the diagonal (diagonal tiles whole:
-// their few lower entries are never read); an odd last column element by element.
-void Problem::schur_dense_update(int n, MatrixMap S) const {
-  if (n == 0) return;
-  const int nf = n_front_;
-  DenseRow rows[kDenseSchurRows];
-  for (int j0 = 0; j0 + 2 <= nf;) {
-    const int nc = j0 + 4 <= nf ? 4 : 2;
-    int k = 0;
-    for (int m = 0; m < n; ++m)
-      if (dense_lo_[m] < j0 + nc) rows[k++] = DenseRow{dense_v_[m], dense_u_[m] + 2 * j0};
-    if (k > 0) {
-      int i0 = 0;
-      for (; i0 + 4 <= j0 + nc; i0 += 4)
-        nc == 4 ? schur_dense_tile<4, 4>(i0, j0, rows, k, S) : schur_dense_tile<4, 2>(i0, j0, rows, k, S);
-      if (i0 < j0 + nc) schur_dense_tile<2, 2>(i0, j0, rows, k, S);  // nc == 2: rows j0, j0 + 1
-    }
-    j0 += nc;
-  }
-  if (nf % 2 == 1) schur_dense_edge(nf - 1, n, S);
-}
-
-// Rows i0..i0+NR-1 of columns j0..j0+NC-1: S(i, j) -= u_m(j) v_m(i) for the listed m in order, in
-// packets of two rows (double_pair.hpp) held in registers across the chunk.
-template <int NR, int NC>
-void Problem::schur_dense_tile(int i0, int j0, const DenseRow* rows, int n, MatrixMap S) const {
-  constexpr int P = NR / 2;
-  const Eigen::Index ld = S.outerStride();
-  double* c0 = S.data() + j0 * ld + i0;
-  Pair s[NC][P];
-  for (int j = 0; j < NC; ++j)
-    for (int p = 0; p < P; ++p) s[j][p] = load_pair(c0 + j * ld + 2 * p);
-  for (int k = 0; k < n; ++k) {
-    Pair v[P];
-    for (int p = 0; p < P; ++p) v[p] = load_pair(rows[k].v + i0 + 2 * p);
-    const double* um = rows[k].u;
-    for (int j = 0; j < NC; ++j) {
-      const Pair a = load_pair(um + 2 * j);
-      for (int p = 0; p < P; ++p) s[j][p] = s[j][p] - a * v[p];
-    }
-  }
-  for (int j = 0; j < NC; ++j)
-    for (int p = 0; p < P; ++p) store_pair(c0 + j * ld + 2 * p, s[j][p]);
-}
-
-// Column j, rows 0..j, one element at a time.
-void Problem::schur_dense_edge(int j, int n, MatrixMap S) const {
-  double* col = S.data() + j * S.outerStride();
-  for (int i = 0; i <= j; ++i) {
-    double x = col[i];
-    for (int m = 0; m < n; ++m) x -= dense_u_[m][2 * j] * dense_v_[m][i];
-    col[i] = x;
-  }
 }
 
 // 2- or 3-dof landmark: W = (H_ll + D)^-1 by a small LLT (kept in winv_; dl_[l][0] = inf when
@@ -613,8 +554,7 @@ void Problem::add_landmark_model_terms(int l, double lm_scale, bool damp, double
 // IMU chain makes it block-tridiagonal) it is eliminated first: C = U^T U by an envelope Cholesky,
 // X = U^-T B^T, A' = A - X^T X (dense rank update), A' factored by cholesky_upper
 // (dense_cholesky.hpp). The dense factorization then runs on the front rows only (72 instead of
-// 171 in the VIO window). Everything
-// is in place in S's upper triangle: U over C, X^T over B.
+// 171 in the VIO window). Everything is in place in S's upper triangle: U over C, X^T over B.
 bool Problem::factor_and_solve() {
   if (!split_) return factor_and_solve_dense();
   if (!factor_tail()) return false;

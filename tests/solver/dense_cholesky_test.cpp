@@ -7,6 +7,8 @@
 #include <limits>
 #include <random>
 
+#include "solver/capacity.hpp"
+
 namespace ums::solver {
 namespace {
 
@@ -75,6 +77,12 @@ TEST_CASE("cholesky_upper refuses matrices that are not positive definite", "[so
     CHECK_FALSE(cholesky_upper(A.data(), n, n));
   }
   SECTION("n = 0 is the empty factor") { CHECK(cholesky_upper(A.data(), n, 0)); }
+  SECTION("above capacity: refused, untouched") {
+    const int big = capacity::kMaxReducedDim + 1;
+    Eigen::MatrixXd B = Eigen::MatrixXd::Identity(big, big);
+    CHECK_FALSE(cholesky_upper(B.data(), big, big));
+    CHECK(B == Eigen::MatrixXd::Identity(big, big));
+  }
 }
 
 }  // namespace

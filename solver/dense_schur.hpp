@@ -1,0 +1,25 @@
+#pragma once
+// The Schur complement of 1-dof landmarks as dense rank updates of the reduced system's front rows:
+// S -= sum_m u_m v_m^T on the upper triangle, with u_m = w_m v_m given. Landmarks come as dense
+// rows over the front (zero outside their couplings), so runs of landmarks with different
+// couplings update S together: each 4 x 4 tile of S takes all of them while it sits in registers
+// (two-double packets, double_pair.hpp). Every entry still receives -(u_m(j) v_m(i)) in row order
+// m = 0, 1, ..., as one row at a time would: the same doubles (an exact zero subtracted changes
+// nothing but the sign of a zero), on x86-64 and aarch64 alike in the portable build
+// (UMS_PORTABLE_FP: no contraction).
+
+namespace ums::solver {
+
+struct DenseSchurRows {
+  int n = 0;                          // rows
+  const double* const* v = nullptr;   // v[m][0..nf): the row
+  const double* const* u2 = nullptr;  // u2[m][2j], u2[m][2j+1]: u_m(j) twice (a packet)
+  const int* lo = nullptr;            // lo[m]: v_m and u_m are zero before it
+};
+
+// S: column-major, leading dimension ld >= nf. Only columns [0, nf) are written, each over rows
+// [0, j] rounded up to whole tiles within the front: the diagonal tiles' few lower entries are
+// written too (the factorizations never read them). Any number of rows (taken 32 at a time).
+void dense_schur_update(double* S, long ld, int nf, const DenseSchurRows& rows);
+
+}  // namespace ums::solver
