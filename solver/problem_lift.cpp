@@ -34,10 +34,14 @@ void Problem::begin_lift(int l) {
 // One lifted residual: A = d r / d p in its host's Jacobian slot; its other blocks are 6-dof
 // (fast2) and 2 rows.
 void Problem::accumulate_lifted(const Residual& rb, const double* r) {
-  const double* A = jac_ws_[rb.lift_pos];  // 2 x 3 row-major
+  // A in locals first: the sums are members like the workspace A sits in, so the compiler
+  // reloaded A after every store.
+  const double* Aw = jac_ws_[rb.lift_pos];  // 2 x 3 row-major
+  const double A[6] = {Aw[0], Aw[1], Aw[2], Aw[3], Aw[4], Aw[5]};
+  const double r0 = r[0], r1 = r[1];
   for (int k = 0; k < 3; ++k) {
     for (int m = k; m < 3; ++m) lift_S_[3 * k + m] += A[k] * A[m] + A[3 + k] * A[3 + m];
-    lift_s_[k] += A[k] * r[0] + A[3 + k] * r[1];
+    lift_s_[k] += A[k] * r0 + A[3 + k] * r1;
   }
   lift_host_slot_ = rb.slot[rb.lift_pos];
   if (mark_touched_) touched_[rb.blocks[rb.lift_pos]] = true;
