@@ -259,26 +259,15 @@ class Problem {
   // Solves the damped system (lm_scale = 1/radius; 0 for Gauss-Newton); false on failure.
   bool compute_step(double lm_scale, double* model_cost_change);
   void form_reduced_system(double lm_scale, bool damp);
-  // 1-dof landmarks eliminated together (problem_solve.cpp, eliminate_run).
-  static constexpr int kSchurBatch = 4;
-  struct Schur1Batch {
-    int lm[kSchurBatch];
-    double w[kSchurBatch];  // 1 / (damped H_ll)
-    int n = 0;
-  };
-  // marginalized: only landmarks marked in marg_ join the run (the marginalization's).
-  int eliminate_run(int l, double lm_scale, MatrixMap S, DenseVector& rhs, bool damp, bool marginalized = false);
+  // Landmark l alone (the marginalization's, linearized one at a time).
   void eliminate_landmark(int l, double lm_scale, MatrixMap S, DenseVector& rhs, bool damp);
   double invert_landmark1(int l, double lm_scale, bool damp);
-  bool same_segments(int l, int m) const;
-  void schur_update1(const Schur1Batch& batch, MatrixMap S, DenseVector& rhs) const;
-  // Every landmark 1-dof: eliminated in chunks of kDenseSchurRows through dense rows (dense_v_,
-  // dense_schur.hpp).
+  // 1-dof landmarks go in chunks of kDenseSchurRows dense rows (dense_v_, dense_schur.hpp).
   static constexpr int kDenseSchurRows = 32;
-  bool dense_schur_applies() const { return all_lm1_; }
   // marginalized: only the landmarks marked in marg_ (the marginalization's, from kept terms).
-  void eliminate_dense(double lm_scale, MatrixMap S, DenseVector& rhs, bool damp, bool marginalized = false);
+  void eliminate_all(double lm_scale, MatrixMap S, DenseVector& rhs, bool damp, bool marginalized = false);
   void gather_dense_row(int l, double w, int m, DenseVector& rhs);
+  void flush_dense_rows(int n, MatrixMap S);
   void eliminate_landmark_block(int l, double lm_scale, MatrixMap S, DenseVector& rhs, bool damp);
   // Factors S_ and solves S_ dx_ = -rhs_ (upper triangle of S_ read, overwritten); false on failure.
   bool factor_and_solve();
@@ -379,13 +368,12 @@ class Problem {
   DenseVector scale_red_;
   DenseVector d_red_;  // LM diagonal of the reduced blocks for the current step
   double dl_[capacity::kMaxEliminatedBlocks][3] = {};
-  // eliminate_dense(): one chunk of landmarks' couplings as dense rows over the front rows, v and
-  // u = w v (zero outside the landmark's segments; u's entries doubled into packets), and the first
-  // row each can be non-zero in.
+  // eliminate_all(), eliminate_landmark(): one chunk of landmarks' couplings as dense rows over
+  // the front rows, v and u = w v (zero outside the landmark's segments; u's entries doubled into
+  // packets), and the first row each can be non-zero in.
   alignas(16) double dense_v_[kDenseSchurRows][capacity::kMaxReducedDim] = {};
   alignas(16) double dense_u_[kDenseSchurRows][2 * capacity::kMaxReducedDim] = {};  // u(j) twice: a packet
   int dense_lo_[kDenseSchurRows] = {};
-  bool all_lm1_ = false;  // prepare(): every landmark slot is 1-dof
   double winv_[capacity::kMaxEliminatedBlocks][9] = {};  // (H_ll + D)^-1 for e > 1
   double min_diag_ = 1e-6;
   double max_diag_ = 1e32;

@@ -109,19 +109,12 @@ SolverStatus Problem::accumulate_marginalized(bool kept) {
     if (!evaluate_residual(rb, true, r, &c)) return SolverStatus::kInvalidInput;
     accumulate_residual(free_res_[q], r);
   }
-  if (kept && dense_schur_applies()) {
+  if (kept) {
     // All their terms are in: eliminated together (each element still sums in landmark order).
-    eliminate_dense(0.0, H_.m(), b_, false, true);
+    eliminate_all(0.0, H_.m(), b_, false, true);
   } else {
-    for (int l = 0; l < num_lm_;) {
-      if (!marg_[lm_block_[l]]) {
-        ++l;
-      } else if (kept) {
-        l = eliminate_run(l, 0.0, H_.m(), b_, false, true);
-      } else if (!linearize_marginalized_landmark(l++)) {
-        return SolverStatus::kInvalidInput;
-      }
-    }
+    for (int l = 0; l < num_lm_; ++l)
+      if (marg_[lm_block_[l]] && !linearize_marginalized_landmark(l)) return SolverStatus::kInvalidInput;
   }
   for (int p = 0; p < num_priors_; ++p) {
     const PriorRef& pr = priors_[p];

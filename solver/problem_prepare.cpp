@@ -65,8 +65,6 @@ SolverStatus Problem::order_blocks() {
     }
   }
   n_front_ = n_red_;
-  all_lm1_ = true;
-  for (int l = 0; l < num_lm_; ++l) all_lm1_ = all_lm1_ && lm_dim_[l] == 1;
   return order_tail();
 }
 

@@ -272,11 +272,7 @@ bool Problem::solved_residuals_current() const {
 bool Problem::compute_step(double lm_scale, double* model_cost_change) {
   const bool damp = lm_scale > 0.0;
   form_reduced_system(lm_scale, damp);
-  if (dense_schur_applies()) {
-    eliminate_dense(lm_scale, S_.m(), rhs_, damp);
-  } else {
-    for (int l = 0; l < num_lm_;) l = eliminate_run(l, lm_scale, S_.m(), rhs_, damp);
-  }
+  eliminate_all(lm_scale, S_.m(), rhs_, damp);
 
   if (n_red_ > 0 && !factor_and_solve()) return false;
 
@@ -314,32 +310,6 @@ void Problem::form_reduced_system(double lm_scale, bool damp) {
   }
 }
 
-// Landmarks l.. eliminated into S, rhs; returns the first landmark not eliminated. 1-dof
-// landmarks in a row with the same segments (nearly all of them: a landmark of the window sees
-// most of its frames) go through schur_update1 together, up to kSchurBatch at a time: S is read
-// and written once per batch instead of once per landmark. Each element still receives the
-// landmarks' updates one after the other in landmark order: the same doubles as one at a time.
-int Problem::eliminate_run(int l, double lm_scale, MatrixMap S, DenseVector& rhs, bool damp,
-                           bool marginalized) {
-  if (lm_dim_[l] != 1) {
-    eliminate_landmark_block(l, lm_scale, S, rhs, damp);
-    return l + 1;
-  }
-  Schur1Batch batch;
-  int next = l;
-  for (; next < num_lm_ && batch.n < kSchurBatch && lm_dim_[next] == 1 && same_segments(l, next) &&
-         (!marginalized || marg_[lm_block_[next]]);
-       ++next) {
-    const double w = invert_landmark1(next, lm_scale, damp);
-    if (w == 0.0) continue;  // skipped: touches nothing, the order of the others is kept
-    batch.lm[batch.n] = next;
-    batch.w[batch.n] = w;
-    ++batch.n;
-  }
-  schur_update1(batch, S, rhs);
-  return next;
-}
-
 // Schur complement of landmark l into S, rhs (rhs = reduced gradient). damp: add its LM diagonal.
 void Problem::eliminate_landmark(int l, double lm_scale, MatrixMap S, DenseVector& rhs,
                                  bool damp) {
@@ -347,11 +317,10 @@ void Problem::eliminate_landmark(int l, double lm_scale, MatrixMap S, DenseVecto
     eliminate_landmark_block(l, lm_scale, S, rhs, damp);
     return;
   }
-  Schur1Batch one;
-  one.lm[0] = l;
-  one.w[0] = invert_landmark1(l, lm_scale, damp);
-  one.n = one.w[0] == 0.0 ? 0 : 1;
-  schur_update1(one, S, rhs);
+  const double w = invert_landmark1(l, lm_scale, damp);
+  if (w == 0.0) return;  // skipped: touches nothing
+  gather_dense_row(l, w, 0, rhs);
+  flush_dense_rows(1, S);
 }
 
 // 1-dof landmark l's damped h inverted: dl_[l][0] keeps w = 1/h for back-substitution, or inf
@@ -368,80 +337,46 @@ double Problem::invert_landmark1(int l, double lm_scale, bool damp) {
   return dl_[l][0];
 }
 
-// Landmarks l and m couple with the same rows (segment by segment).
-bool Problem::same_segments(int l, int m) const {
-  const int n = lm_seg_begin_[l + 1] - lm_seg_begin_[l];
-  if (lm_seg_begin_[m + 1] - lm_seg_begin_[m] != n) return false;
-  for (int a = 0; a < n; ++a) {
-    const int sl = lm_seg_begin_[l] + a, sm = lm_seg_begin_[m] + a;
-    if (seg_row_[sl] != seg_row_[sm] || seg_len_[sl] != seg_len_[sm]) return false;
+// Every landmark's Schur complement into S, rhs: S -= V W V^T, rhs -= V W g, landmark after
+// landmark in slot order, so every element receives the terms in that order whatever the grouping:
+// the same doubles as one landmark at a time. 1-dof landmarks (nearly all) go in chunks of dense
+// rows (dense_schur.hpp): S is read and written once per chunk. A landmark of 2 or 3 dofs ends the
+// chunk before it and is eliminated on its own. marginalized: only the landmarks marked in marg_.
+void Problem::eliminate_all(double lm_scale, MatrixMap S, DenseVector& rhs, bool damp, bool marginalized) {
+  int n = 0;
+  for (int l = 0; l < num_lm_; ++l) {
+    if (marginalized && !marg_[lm_block_[l]]) continue;
+    if (lm_dim_[l] != 1) {
+      flush_dense_rows(n, S);
+      n = 0;
+      eliminate_landmark_block(l, lm_scale, S, rhs, damp);
+      continue;
+    }
+    const double w = invert_landmark1(l, lm_scale, damp);
+    if (w == 0.0) continue;  // skipped: touches nothing
+    gather_dense_row(l, w, n++, rhs);
+    if (n == kDenseSchurRows) {
+      flush_dense_rows(n, S);
+      n = 0;
+    }
   }
-  return true;
+  flush_dense_rows(n, S);
 }
 
-// S -= sum_k w_k v_k v_k^T, rhs -= sum_k w_k g_k v_k over the batch's common segments (upper
-// triangle), column by column in packets of 2 rows (double_pair.hpp). A diagonal segment's
-// column j is updated over rows 0..j rounded up to a whole packet inside the segment: the one
-// lower entry written is never read (form_reduced_system copies H's upper triangle only, and
-// the factorizations and the marginalization read upper triangles).
-void Problem::schur_update1(const Schur1Batch& batch, MatrixMap S, DenseVector& rhs) const {
-  const int n = batch.n;
+// S -= the products of dense rows 0..n-1 (dense_schur.hpp).
+void Problem::flush_dense_rows(int n, MatrixMap S) {
   if (n == 0) return;
-  const int s0 = lm_seg_begin_[batch.lm[0]];
-  const int s1 = lm_seg_begin_[batch.lm[0] + 1];
-  const Eigen::Index ld = S.outerStride();
-  const double* va[kSchurBatch];
-  const double* vb[kSchurBatch];
-  double c[kSchurBatch];
-  for (int a = s0; a < s1; ++a) {
-    const int oa = seg_row_[a];
-    const int la = seg_len_[a];
-    for (int k = 0; k < n; ++k) {
-      va[k] = v_ + seg_v_[lm_seg_begin_[batch.lm[k]] + (a - s0)];
-      c[k] = batch.w[k] * gl_[batch.lm[k]][0];
-    }
-    sub_scaled_sum(rhs.data() + oa, n, c, va, la);
-    for (int j = 0; j < la; ++j) {
-      for (int k = 0; k < n; ++k) c[k] = batch.w[k] * va[k][j];
-      sub_scaled_sum(S.data() + (oa + j) * ld + oa, n, c, va, std::min((j + 2) & ~1, la));
-    }
-    for (int b = a + 1; b < s1; ++b) {
-      const int ob = seg_row_[b];
-      for (int k = 0; k < n; ++k) vb[k] = v_ + seg_v_[lm_seg_begin_[batch.lm[k]] + (b - s0)];
-      for (int j = 0; j < seg_len_[b]; ++j) {
-        for (int k = 0; k < n; ++k) c[k] = batch.w[k] * vb[k][j];
-        sub_scaled_sum(S.data() + (ob + j) * ld + oa, n, c, va, la);
-      }
-    }
+  const double* v[kDenseSchurRows];
+  const double* u2[kDenseSchurRows];
+  for (int m = 0; m < n; ++m) {
+    v[m] = dense_v_[m];
+    u2[m] = dense_u_[m];
   }
-}
-
-// S -= sum_l w_l v_l v_l^T, rhs -= sum_l w_l g_l v_l, landmark after landmark in slot order as
-// eliminate_run does, so every element receives the same terms in the same order: the same doubles
-// (dense_schur.hpp). The landmarks go in chunks of dense rows, and S is read and written once per
-// chunk instead of once per run of landmarks with equal segments, which in a sliding window are
-// short.
-void Problem::eliminate_dense(double lm_scale, MatrixMap S, DenseVector& rhs, bool damp, bool marginalized) {
-  for (int l = 0; l < num_lm_;) {
-    int n = 0;
-    for (; l < num_lm_ && n < kDenseSchurRows; ++l) {
-      if (marginalized && !marg_[lm_block_[l]]) continue;
-      const double w = invert_landmark1(l, lm_scale, damp);
-      if (w == 0.0) continue;  // skipped: touches nothing
-      gather_dense_row(l, w, n++, rhs);
-    }
-    const double* v[kDenseSchurRows];
-    const double* u2[kDenseSchurRows];
-    for (int m = 0; m < n; ++m) {
-      v[m] = dense_v_[m];
-      u2[m] = dense_u_[m];
-    }
-    dense_schur_update(S.data(), S.outerStride(), n_front_, DenseSchurRows{n, v, u2, dense_lo_});
-  }
+  dense_schur_update(S.data(), S.outerStride(), n_front_, DenseSchurRows{n, v, u2, dense_lo_});
 }
 
 // Landmark l's couplings as dense row m (v, u = w v, zero between and around its segments), and
-// its gradient term out of rhs (rhs -= (w g) v over its segments, as schur_update1).
+// its gradient term out of rhs (rhs -= (w g) v over its segments).
 void Problem::gather_dense_row(int l, double w, int m, DenseVector& rhs) {
   double* v = dense_v_[m];
   double* u = dense_u_[m];
