@@ -624,10 +624,11 @@ class AffineResidual final : public ResidualFunction {
   Eigen::VectorXd c_;
 };
 
-// 1-dof landmarks (the dense Schur path, problem_solve.cpp eliminate_dense) over reduced blocks of
-// the given sizes, each landmark seen by a random subset of them (gaps between its segments): one
+// Landmarks of lm_dim[l] dofs (1: the dense rows of problem_solve.cpp's eliminate_all; 2 or 3:
+// eliminated alone, ending the chunk of 1-dof rows before them) over reduced blocks of the given
+// sizes, each landmark seen by a random subset of them (gaps between its segments): one
 // Gauss-Newton step against a dense solve of the full system.
-void check_dense_schur(const std::vector<int>& red_size, int n_lm, std::uint32_t seed) {
+void check_dense_schur(const std::vector<int>& red_size, const std::vector<int>& lm_dim, std::uint32_t seed) {
   bench::Rng rng(seed);
   auto randm = [&](int r, int c) {
     Eigen::MatrixXd m(r, c);
@@ -636,14 +637,19 @@ void check_dense_schur(const std::vector<int>& red_size, int n_lm, std::uint32_t
     return m;
   };
   const int nb = static_cast<int>(red_size.size());
-  std::vector<int> col(static_cast<std::size_t>(nb), 0);
+  const int n_lm = static_cast<int>(lm_dim.size());
+  std::vector<int> col(static_cast<std::size_t>(nb), 0), lm_col(static_cast<std::size_t>(n_lm), 0);
   int dim_red = 0;
   for (int k = 0; k < nb; ++k) {
     col[static_cast<std::size_t>(k)] = dim_red;
     dim_red += red_size[static_cast<std::size_t>(k)];
   }
-  std::vector<std::vector<double>> x_red(static_cast<std::size_t>(nb));
-  std::vector<double> x_lm(static_cast<std::size_t>(n_lm), 0.0);
+  int dim = dim_red;
+  for (int l = 0; l < n_lm; ++l) {
+    lm_col[static_cast<std::size_t>(l)] = dim;
+    dim += lm_dim[static_cast<std::size_t>(l)];
+  }
+  std::vector<std::vector<double>> x_red(static_cast<std::size_t>(nb)), x_lm(static_cast<std::size_t>(n_lm));
   auto problem = std::make_unique<Problem>();
   std::vector<BlockId> red_id(static_cast<std::size_t>(nb)), lm_id(static_cast<std::size_t>(n_lm));
   for (int k = 0; k < nb; ++k) {
@@ -651,32 +657,38 @@ void check_dense_schur(const std::vector<int>& red_size, int n_lm, std::uint32_t
     REQUIRE(problem->add_euclidean_block(x_red[static_cast<std::size_t>(k)].data(), red_size[static_cast<std::size_t>(k)],
                                          &red_id[static_cast<std::size_t>(k)]) == SolverStatus::kOk);
   }
-  for (int l = 0; l < n_lm; ++l)
-    REQUIRE(problem->add_landmark_block(&x_lm[static_cast<std::size_t>(l)], 1, &lm_id[static_cast<std::size_t>(l)]) == SolverStatus::kOk);
+  for (int l = 0; l < n_lm; ++l) {
+    x_lm[static_cast<std::size_t>(l)].assign(static_cast<std::size_t>(lm_dim[static_cast<std::size_t>(l)]), 0.0);
+    REQUIRE(problem->add_landmark_block(x_lm[static_cast<std::size_t>(l)].data(), lm_dim[static_cast<std::size_t>(l)],
+                                        &lm_id[static_cast<std::size_t>(l)]) == SolverStatus::kOk);
+  }
   std::vector<std::unique_ptr<AffineResidual>> res;
   std::vector<Eigen::MatrixXd> Jrows;
   std::vector<Eigen::VectorXd> rrows;
   for (int l = 0; l < n_lm; ++l) {
+    const int e = lm_dim[static_cast<std::size_t>(l)];
     int seen = 0;
     for (int k = 0; k < nb; ++k) {
-      // Each block with probability 0.6, at least two per landmark.
-      if (rng.normal() < -0.25 && !(k >= nb - 2 && seen < 2)) continue;
+      // Each block with probability 0.6, at least two per landmark (a 3-dof one: three, so
+      // that its 3 x 3 block is invertible).
+      const int need = std::max(2, e);
+      if (rng.normal() < -0.25 && !(k >= nb - need && seen < need)) continue;
       ++seen;
       const int t = red_size[static_cast<std::size_t>(k)];
-      const Eigen::MatrixXd A = randm(2, t), B = randm(2, 1);
+      const Eigen::MatrixXd A = randm(2, t), B = randm(2, e);
       Eigen::VectorXd c(2);
       c << rng.normal(), rng.normal();
       res.push_back(std::make_unique<AffineResidual>(A, B, c));
       REQUIRE(problem->add_residual(res.back().get(), RobustLoss::trivial(),
                                     {red_id[static_cast<std::size_t>(k)], lm_id[static_cast<std::size_t>(l)]}) == SolverStatus::kOk);
-      Eigen::MatrixXd J = Eigen::MatrixXd::Zero(2, dim_red + n_lm);
+      Eigen::MatrixXd J = Eigen::MatrixXd::Zero(2, dim);
       J.block(0, col[static_cast<std::size_t>(k)], 2, t) = A;
-      J.col(dim_red + l) = B;
+      J.block(0, lm_col[static_cast<std::size_t>(l)], 2, e) = B;
       Jrows.push_back(J);
       rrows.push_back(c);
     }
   }
-  Eigen::MatrixXd Jd(2 * static_cast<int>(Jrows.size()), dim_red + n_lm);
+  Eigen::MatrixXd Jd(2 * static_cast<int>(Jrows.size()), dim);
   Eigen::VectorXd rd(Jd.rows());
   for (std::size_t i = 0; i < Jrows.size(); ++i) {
     Jd.middleRows(2 * static_cast<int>(i), 2) = Jrows[i];
@@ -691,20 +703,35 @@ void check_dense_schur(const std::vector<int>& red_size, int n_lm, std::uint32_t
       worst = std::max(worst, std::abs(x_red[static_cast<std::size_t>(k)][static_cast<std::size_t>(i)] -
                                        expected[col[static_cast<std::size_t>(k)] + i]));
   for (int l = 0; l < n_lm; ++l)
-    worst = std::max(worst, std::abs(x_lm[static_cast<std::size_t>(l)] - expected[dim_red + l]));
+    for (int i = 0; i < lm_dim[static_cast<std::size_t>(l)]; ++i)
+      worst = std::max(worst, std::abs(x_lm[static_cast<std::size_t>(l)][static_cast<std::size_t>(i)] -
+                                       expected[lm_col[static_cast<std::size_t>(l)] + i]));
   INFO("front rows " << dim_red << ", landmarks " << n_lm << ": max |x - x_dense| " << worst);
   CHECK(expected.lpNorm<Eigen::Infinity>() > 1e-3);
   CHECK(worst < 1e-10 * (1.0 + expected.lpNorm<Eigen::Infinity>()));
 }
 
+std::vector<int> ones(int n) { return std::vector<int>(static_cast<std::size_t>(n), 1); }
+
 TEST_CASE("1-dof landmarks with gaps, front rows of every size mod 4, several chunks: Schur step = dense solve",
           "[solver][problem]") {
   // 24, 22 (a last pair of columns), 23 (and an odd last column), 17 rows; 12 to 75 landmarks
   // (kDenseSchurRows = 32 per chunk).
-  check_dense_schur({6, 6, 6, 6}, 40, 3);
-  check_dense_schur({6, 6, 6, 4}, 75, 4);
-  check_dense_schur({6, 6, 6, 4, 1}, 33, 5);
-  check_dense_schur({5, 6, 6}, 12, 6);
+  check_dense_schur({6, 6, 6, 6}, ones(40), 3);
+  check_dense_schur({6, 6, 6, 4}, ones(75), 4);
+  check_dense_schur({6, 6, 6, 4, 1}, ones(33), 5);
+  check_dense_schur({5, 6, 6}, ones(12), 6);
+}
+
+TEST_CASE("1-dof landmarks around 2- and 3-dof ones: each ends the chunk before it, Schur step = dense solve",
+          "[solver][problem]") {
+  // A 3-dof landmark first, after 5 (a short chunk), after 32 + 9 (a full chunk and a partial
+  // one), two in a row, and last; 2-dof ones in between.
+  std::vector<int> dims = ones(80);
+  for (int l : {0, 5, 46, 47, 79}) dims[static_cast<std::size_t>(l)] = 3;
+  for (int l : {20, 60}) dims[static_cast<std::size_t>(l)] = 2;
+  check_dense_schur({6, 6, 6, 6, 4}, dims, 7);
+  check_dense_schur({6, 6, 5}, {1, 2, 1, 1, 3, 1, 2, 2, 1}, 8);
 }
 
 TEST_CASE("Eliminated blocks of 2 and 3 dofs and odd block sizes: Schur step = dense solve",
