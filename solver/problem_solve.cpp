@@ -228,11 +228,14 @@ bool Problem::accept_step(LmState& s, double cand_cost, double relative_decrease
   // The last permitted step: the loop's next tests end the solve before any of them reads
   // the Jacobians, so linearizing here would only be thrown away (the time test still comes
   // first, as in the loop). A window solve capped at 3 iterations saves 1 of its 7 passes.
-  if (s.iteration >= o.max_iterations) {
+  const bool last_step = o.max_successful_steps > 0 && s.summary.successful_steps + 1 >= o.max_successful_steps;
+  if (s.iteration >= o.max_iterations || last_step) {
     ++s.summary.successful_steps;
     if (seconds_since(s.t0) >= o.max_time_s)
       return s.end(SolverStatus::kTimeBudget, Termination::kTimeBudget, s.x_cost + s.fixed);
-    return s.end(SolverStatus::kMaxIterations, Termination::kMaxIterations, s.x_cost + s.fixed);
+    return s.end(SolverStatus::kMaxIterations, s.iteration >= o.max_iterations ? Termination::kMaxIterations
+                                                                                : Termination::kMaxSuccessfulSteps,
+                 s.x_cost + s.fixed);
   }
   s.x_norm = variable_x_norm();
   if (!linearize(true, &s.x_cost)) {

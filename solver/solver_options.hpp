@@ -29,6 +29,11 @@ struct SolverOptions {
   // Ceres spends on it: Ceres would discard it under function_tolerance unless its actual change
   // were more than 1 / predicted_stop_share times the predicted one (docs/solver.md).
   double predicted_stop_share = 0.0;
+  // count; not in Ceres, 0 turns it off. After this many accepted steps the solve ends
+  // (Termination::kMaxSuccessfulSteps, status kMaxIterations) without linearizing at the last
+  // one: a sliding window's next solve starts from there anyway, and that linearization is most
+  // often spent only on finding that the next step is too small to take (docs/solver.md).
+  int max_successful_steps = 0;
 
   bool validate() const {
     return max_iterations >= 0 && max_time_s > 0.0 && function_tolerance >= 0.0 &&
@@ -38,7 +43,7 @@ struct SolverOptions {
            min_trust_region_radius >= 0.0 && min_lm_diagonal > 0.0 &&
            max_lm_diagonal >= min_lm_diagonal && min_relative_decrease >= 0.0 &&
            max_consecutive_invalid_steps > 0 && predicted_stop_share >= 0.0 &&
-           predicted_stop_share <= 1.0;
+           predicted_stop_share <= 1.0 && max_successful_steps >= 0;
   }
 };
 
@@ -50,6 +55,7 @@ enum class Termination : unsigned char {
   kGradientTolerance,
   kMinTrustRegionRadius,
   kMaxIterations,
+  kMaxSuccessfulSteps,  // SolverOptions::max_successful_steps steps were accepted
   kTimeBudget,
   kFailure,
 };

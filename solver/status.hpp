@@ -9,7 +9,7 @@ namespace ums::solver {
 enum class SolverStatus : std::uint8_t {
   kOk = 0,            // set-up call succeeded
   kConverged,         // a cost, step, gradient or trust-region tolerance was met
-  kMaxIterations,     // stopped on SolverOptions::max_iterations
+  kMaxIterations,     // stopped on SolverOptions::max_iterations or max_successful_steps
   kTimeBudget,        // stopped on SolverOptions::max_time_s
   kInvalidInput,      // NaN/Inf in a parameter or residual, bad id, wrong size, bad structure
   kFull,              // a compile-time capacity of solver/capacity.hpp would be exceeded

@@ -29,6 +29,7 @@ struct AppConfig {
   // Back end
   double max_solver_time_s = 0.04;      // s, wall-time bound of one window solve (VINS max_solver_time)
   int max_num_iterations = 8;           // solver iterations per window solve (VINS max_num_iterations)
+  int max_steps_per_solve = 0;          // accepted LM steps per first-round window solve (0: until converged)
   bool estimate_extrinsic = false;      // refine T_b_c around the given values (VINS estimate_extrinsic 1)
   bool estimate_td = false;             // estimate the camera-IMU time offset (VINS estimate_td)
   bool estimate_gyro_scale = false;     // estimate the gyro's per-axis scale-factor error

@@ -64,7 +64,7 @@ ModeEvent Estimator::frame_vo(WindowFrame& f) {
   spec.prior = false;
   spec.fix_first_pose = true;
   bool converged = false;
-  builder_->solve(spec, options_.max_iterations_stage, 1e9, &converged);
+  builder_->solve(spec, {options_.max_iterations_stage, options_.max_steps_stage}, &converged);
   second_round(spec, converged);
   if (dt > 0.0) vo_velocity_ = (state::p(f.pose) - state::p(prev.pose)) / dt;
   state::v(f.sb) = vo_velocity_;
@@ -85,7 +85,7 @@ void Estimator::second_round(const SolveSpec& spec, bool converged) {
   const int outliers = builder_->mark_outliers();
   if (outliers > 0) landmarks_->compact();
   if (outliers > 0 || !converged) {
-    builder_->solve(spec, std::max(1, options_.max_iterations_round2), options_.round2_time_s);
+    builder_->solve(spec, {std::max(1, options_.max_iterations_round2), 0, options_.round2_time_s});
     ++stats_.second_rounds;
   }
 }
@@ -188,37 +188,37 @@ void Estimator::end_relocation(const Eigen::Isometry3d& T_b0_loop, const SolveSp
 }
 
 bool Estimator::solve_stages(WindowFrame& f, SolveSpec* spec) {
-  const int it = options_.max_iterations_stage;
+  const SolveBudget budget{options_.max_iterations_stage, options_.max_steps_stage};
   bool converged = false;
   if (!options_.two_stage) {
     spec->groups = kAllGroups;
-    builder_->solve(*spec, it, 1e9, &converged);
+    builder_->solve(*spec, budget, &converged);
   } else if (count_candidates(*landmarks_, k3DGroup) < options_.min_3d_landmarks) {
     spec->groups = kAllGroups;
-    builder_->solve(*spec, it, 1e9, &converged);
+    builder_->solve(*spec, budget, &converged);
     ++stats_.stage_added_2d_right;
   } else if (const int n_2d_left = count_candidates(*landmarks_, k2DLeftGroup); n_2d_left == 0) {
     // No 2D-left landmark to add: the second stage would be the first again.
     spec->groups = k3DGroup;
-    builder_->solve(*spec, it, 1e9, &converged);
+    builder_->solve(*spec, budget, &converged);
     ++stats_.stage_3d_sufficient;
   } else if (n_2d_left < options_.stage_min_2d_left) {
     // A handful of 2D-left landmarks beside the stereo ones cannot move the pose away from the
     // stereo-only solution: the comparison would cost a solve and always agree.
     spec->groups = k3DGroup | k2DLeftGroup;
-    builder_->solve(*spec, it, 1e9, &converged);
+    builder_->solve(*spec, budget, &converged);
     ++stats_.stage_few_2d_left;
   } else {
     // The paper's two stages: stereo alone and stereo + 2D-left from the same start; agreement
     // keeps the latter, disagreement brings in the 2D-right features as well.
     save_window(*window_, *landmarks_, stage_backup_.get());
     spec->groups = k3DGroup;
-    builder_->solve(*spec, options_.max_iterations_stage_a, 1e9);
+    builder_->solve(*spec, {options_.max_iterations_stage_a});
     const Eigen::Vector3d p_a = state::p(f.pose);
     const Eigen::Quaterniond q_a = quat_of(f.pose).normalized();
     restore_window(*stage_backup_, window_.get(), landmarks_.get());
     spec->groups = k3DGroup | k2DLeftGroup;
-    builder_->solve(*spec, it, 1e9, &converged);
+    builder_->solve(*spec, budget, &converged);
     const double dp = (state::p(f.pose) - p_a).norm();
     const double dq_deg = q_a.angularDistance(quat_of(f.pose).normalized()) * 180.0 / M_PI;
     if (dp <= options_.stage_agree_m && dq_deg <= options_.stage_agree_deg) {
@@ -226,7 +226,7 @@ bool Estimator::solve_stages(WindowFrame& f, SolveSpec* spec) {
     } else {
       restore_window(*stage_backup_, window_.get(), landmarks_.get());
       spec->groups = kAllGroups;
-      builder_->solve(*spec, it, 1e9, &converged);
+      builder_->solve(*spec, budget, &converged);
       ++stats_.stage_added_2d_right;
     }
   }

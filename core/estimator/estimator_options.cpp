@@ -29,6 +29,7 @@ void EstimatorOptions::validate() const {
   require(outlier_px > 0.0, "outlier_px", outlier_px);
   require(max_iterations_stage >= 1, "max_iterations_stage", max_iterations_stage);
   require(max_iterations_stage_a >= 1, "max_iterations_stage_a", max_iterations_stage_a);
+  require(max_steps_stage >= 0, "max_steps_stage", max_steps_stage);
   require(share_2d >= 0.0 && share_2d <= 1.0, "share_2d", share_2d);
   require(max_iterations_round2 >= 0, "max_iterations_round2", max_iterations_round2);
   require(round2_time_s >= 0.0, "round2_time_s", round2_time_s);

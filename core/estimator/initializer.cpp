@@ -81,7 +81,7 @@ bool Initializer::vision_only_ba(int iterations) {
   spec.imu = false;
   spec.prior = false;
   spec.fix_first_pose = true;
-  const bool ok = builder_->solve(spec, iterations, 1e9);
+  const bool ok = builder_->solve(spec, {iterations});
   if (builder_->mark_outliers() > 0) landmarks_->compact();
   return ok;
 }
@@ -146,7 +146,7 @@ ModeEvent Initializer::align() {
   spec.imu = true;
   spec.prior = false;
   constexpr int kAlignIterations = 8;
-  if (!builder_->solve(spec, kAlignIterations, 1e9)) return fail(false);
+  if (!builder_->solve(spec, {kAlignIterations})) return fail(false);
   for (int k = 0; k < window_->size(); ++k)
     if (!Eigen::Map<const Vector9>(window_->at(k).sb).allFinite()) return fail(false);
   if (builder_->mark_outliers() > 0) landmarks_->compact();

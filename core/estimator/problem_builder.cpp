@@ -61,18 +61,23 @@ void ProblemBuilder::clear_relocation(const SolveSpec& spec) {
   if (in_problem) build(spec);
 }
 
-bool ProblemBuilder::solve(const SolveSpec& spec, int max_iterations, double max_time_s, bool* converged) {
+bool ProblemBuilder::solve(const SolveSpec& spec, const SolveBudget& budget, bool* converged) {
   build(spec);
   solver::SolverOptions opt;
-  opt.max_iterations = max_iterations;
-  opt.max_time_s = max_time_s;
+  opt.max_iterations = budget.iterations;
+  opt.max_successful_steps = budget.steps;
+  opt.max_time_s = budget.time_s;
   opt.function_tolerance = options_.function_tolerance;
   opt.predicted_stop_share = options_.predicted_stop_share;
   solver::SolverSummary summary;
   const solver::SolverStatus st = problem_->solve(opt, &summary);
   ++stats_->solves;
   window_->extrinsics().sync();  // the solver may have moved them (estimate_extrinsic)
-  if (converged != nullptr) *converged = st == solver::SolverStatus::kConverged;
+  if (converged != nullptr) {
+    *converged = st == solver::SolverStatus::kConverged ||
+                 (st == solver::SolverStatus::kMaxIterations &&
+                  summary.termination == solver::Termination::kMaxSuccessfulSteps);
+  }
   return solver::usable(st);
 }
 

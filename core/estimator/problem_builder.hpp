@@ -53,6 +53,14 @@ struct ProblemBuilderOptions {
 };
 
 // What one solve contains.
+// How far one solve may go: LM step attempts, accepted steps (0: no limit; the solve then ends
+// without linearizing at the last one, solver::SolverOptions::max_successful_steps) and wall time.
+struct SolveBudget {
+  int iterations = 50;  // count
+  int steps = 0;        // count
+  double time_s = 1e9;  // s
+};
+
 struct SolveSpec {
   std::uint8_t groups = kAllGroups;  // landmark classes
   bool imu = true;                   // IMU factors, bias prior, still constraints; else speed-bias fixed
@@ -68,8 +76,9 @@ class ProblemBuilder {
   ProblemBuilder(const ProblemBuilder&) = delete;
   ProblemBuilder& operator=(const ProblemBuilder&) = delete;
 
-  // Builds and solves; false when the solver's result is not usable.
-  bool solve(const SolveSpec& spec, int max_iterations, double max_time_s, bool* converged = nullptr);
+  // Builds and solves; false when the solver's result is not usable. *converged: a tolerance
+  // ended the solve, or the budget's accepted steps (by design, not cut short).
+  bool solve(const SolveSpec& spec, const SolveBudget& budget, bool* converged = nullptr);
   // Marks the landmarks of the last solve with an observation beyond outlier_rad (or a depth out
   // of range: depth dropped, re-triangulated later); returns how many were marked.
   int mark_outliers();

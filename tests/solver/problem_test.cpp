@@ -929,6 +929,61 @@ TEST_CASE("After rejected steps the kept residual is the returned iterate's", "[
   }
 }
 
+TEST_CASE("max_successful_steps ends the solve after that many accepted steps, rejected ones not counted, "
+          "without linearizing at the last",
+          "[solver][problem]") {
+  auto problem = std::make_unique<Problem>();
+  const CubeResidual f;
+  // r = 10 (x^3 - 1) from x = 0.05 with an undamped start: the first steps overshoot and are
+  // rejected, and the minimum x = 1 takes several accepted steps.
+  double x = 0.0;  // the block's value: outlives each run
+  auto run = [&](int max_iterations, int max_steps, SolverSummary* sum) {
+    problem->clear();
+    x = 0.05;
+    BlockId id = 0;
+    REQUIRE(problem->add_euclidean_block(&x, 1, &id) == SolverStatus::kOk);
+    REQUIRE(problem->add_residual(&f, RobustLoss::trivial(), {id}) == SolverStatus::kOk);
+    SolverOptions opt;
+    opt.max_iterations = max_iterations;
+    opt.max_successful_steps = max_steps;
+    opt.initial_trust_region_radius = 1e16;
+    const SolverStatus st = problem->solve(opt, sum);
+    REQUIRE(usable(st));
+    if (sum->termination == Termination::kMaxSuccessfulSteps) CHECK(st == SolverStatus::kMaxIterations);
+    return x;
+  };
+  SolverSummary full, one, two, capped;
+  const double x_full = run(50, 0, &full);
+  CHECK(std::abs(x_full - 1.0) < 1e-4);
+  REQUIRE(full.successful_steps >= 3);
+  const double x_one = run(50, 1, &one);
+  INFO("one step: " << one.iterations << " attempts, x = " << x_one);
+  CHECK(one.termination == Termination::kMaxSuccessfulSteps);
+  CHECK(one.successful_steps == 1);
+  CHECK(one.iterations > 1);        // the rejected attempts before it are not counted
+  CHECK(one.linearizations == 1);   // only at the start
+  CHECK(one.final_cost < one.initial_cost);
+  REQUIRE(problem->solved_residuals_current());
+  CHECK(problem->solved_residual(0)[0] == 10.0 * (x_one * x_one * x_one - 1.0));
+  // The same attempts capped by max_iterations end at the same x, bit for bit: the budget
+  // changes where the solve stops, not the step.
+  const double x_capped = run(one.iterations, 0, &capped);
+  CHECK(capped.termination == Termination::kMaxIterations);
+  CHECK(x_capped == x_one);
+  const double x_two = run(50, 2, &two);
+  CHECK(two.successful_steps == 2);
+  CHECK(two.linearizations == 2);
+  CHECK(two.final_cost < one.final_cost);
+  CHECK(std::abs(x_two - 1.0) < std::abs(x_one - 1.0));
+  // A budget the solve does not reach changes nothing.
+  SolverSummary roomy;
+  CHECK(run(50, full.successful_steps + 1, &roomy) == x_full);
+  CHECK(roomy.termination == full.termination);
+  SolverOptions bad;
+  bad.max_successful_steps = -1;
+  CHECK_FALSE(bad.validate());
+}
+
 TEST_CASE("A solve that fails keeps no residuals, one over constant blocks is not kept", "[solver][problem]") {
   auto problem = std::make_unique<Problem>();
   PointResidual m(1.0, 2.0);

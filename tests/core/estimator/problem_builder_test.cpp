@@ -50,7 +50,7 @@ Outcome solve_and_check(bool moved) {
   spec.imu = false;
   spec.prior = false;
   spec.fix_first_pose = true;
-  REQUIRE(builder.solve(spec, 5, 1e9));
+  REQUIRE(builder.solve(spec, {5}));
   REQUIRE(builder.num_selected() >= 35);
   if (moved) {
     double& x = ums::state::p(sc.window.slot(sc.window.slot_at(2)).pose).x();
