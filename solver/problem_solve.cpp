@@ -519,19 +519,14 @@ void Problem::subtract_tail_products() {
   double* s = S.data();
   for (int j = nf; j < n_red_; j += 4) {
     const int g = std::min(4, n_red_ - j);
-    const double* x[4];
     int lo = nf;
-    for (int c = 0; c < 4; ++c) {
-      x[c] = s + (j + std::min(c, g - 1)) * ld;
-      if (c < g) lo = std::min(lo, tail_front_first_[j + c]);
-    }
+    for (int c = 0; c < g; ++c) lo = std::min(lo, tail_front_first_[j + c]);
+    const double* x[4];  // the columns from row lo on
+    for (int c = 0; c < g; ++c) x[c] = s + (j + c) * ld + lo;
     for (int q = lo; q < nf; ++q) {
-      // Columns past g repeat the last one with a zero weight: x * 0 subtracts an exact zero.
       double w[4];
-      for (int c = 0; c < 4; ++c) w[c] = c < g ? x[c][q] : 0.0;
-      double* aq = s + q * ld;
-      for (int p = lo; p <= q; ++p)
-        aq[p] = aq[p] - x[0][p] * w[0] - x[1][p] * w[1] - x[2][p] * w[2] - x[3][p] * w[3];
+      for (int c = 0; c < g; ++c) w[c] = x[c][q - lo];
+      sub_scaled_sum(s + q * ld + lo, g, w, x, q - lo + 1);  // rows lo..q of column q
     }
   }
 }
@@ -568,11 +563,18 @@ bool Problem::factor_tail() {
     for (int k = fj; k < j; ++k) d -= cj[k] * cj[k];
     if (!(d > 0.0)) return false;
     cj[j] = std::sqrt(d);
-    // X^T column j (rows 0..nf): (B^T(j,:) - sum_k U(k,j) X(k,:)) / U(j,j).
-    for (int k = fj; k < j; ++k) {
-      const double u = cj[k];
-      const double* xk = col(k);
-      for (int r = tail_front_first_[k]; r < nf; ++r) cj[r] -= u * xk[r];
+    // X^T column j (rows 0..nf): (B^T(j,:) - sum_k U(k,j) X(k,:)) / U(j,j). Up to four columns
+    // k with the same first row at a time; every row still takes the terms in k order.
+    for (int k = fj; k < j;) {
+      const int r0 = tail_front_first_[k];
+      double u[4];
+      const double* xk[4];
+      int m = 0;
+      for (; m < 4 && k < j && tail_front_first_[k] == r0; ++m, ++k) {
+        u[m] = cj[k];
+        xk[m] = col(k) + r0;
+      }
+      if (r0 < nf) sub_scaled_sum(cj + r0, m, u, xk, nf - r0);
     }
     const double inv = 1.0 / cj[j];
     for (int r = tail_front_first_[j]; r < nf; ++r) cj[r] *= inv;
