@@ -6,14 +6,20 @@
 # --deterministic: the solver's second round is bounded by iterations, not by the wall clock that
 # valgrind slows 20-50x (the count would otherwise depend on the machine). The same figures for
 # the aarch64 build, counted under qemu: scripts/instructions_aarch64.sh.
-# Usage: scripts/instructions.sh [build_dir] [dataset]   (default build/host, built by
-#   scripts/demo.sh, and the sequence above; a dataset is a EuRoC folder holding mav0/)
+# Usage: scripts/instructions.sh [build_dir] [dataset] [config]   (default build/host, built by
+#   scripts/demo.sh, and the sequence above; a dataset is a EuRoC folder holding mav0/; a config
+#   is a VINS-style YAML passed to `umsvins replay --config`, e.g. to price a knob)
 # Also prints the whole process (start-up, reading and PNG decoding included) per frame.
 set -euo pipefail
 
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${1:-$root/build/host}"
 dataset="${2:-}"
+config=()
+if [[ -n "${3:-}" ]]; then
+  [[ -f "$3" ]] || { echo "instructions: config $3: no such file" >&2; exit 64; }
+  config=(--config "$3")
+fi
 umsvins="$build/board/host/umsvins"
 [[ -x "$umsvins" ]] || { echo "instructions: build first (scripts/demo.sh builds $umsvins)" >&2; exit 1; }
 command -v valgrind >/dev/null || { echo "instructions: needs valgrind (apt-get install valgrind)" >&2; exit 1; }
@@ -31,7 +37,7 @@ count() {  # toggle-collect pattern (empty: the whole process) -> instructions i
   local toggle=()
   [[ -n "$1" ]] && toggle=(--toggle-collect="$1")
   valgrind --tool=callgrind --callgrind-out-file="$work/cg.out" "${toggle[@]}" \
-    "$umsvins" replay "$dataset" --out "$work/out" --quiet --deterministic >/dev/null 2>"$work/vg.log"
+    "$umsvins" replay "$dataset" "${config[@]}" --out "$work/out" --quiet --deterministic >/dev/null 2>"$work/vg.log"
   grep -E '^==[0-9]+== Collected' "$work/vg.log" | awk '{print $4}'
 }
 

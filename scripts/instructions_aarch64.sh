@@ -14,7 +14,7 @@
 # qemu runs the binary as a Cortex-A72 (-cpu cortex-a72), so the C library picks the routines
 # it would pick on the board (with qemu's default CPU it takes SVE and LSE variants).
 #
-# Usage: scripts/instructions_aarch64.sh [--x86] [--cycles] [--function=LABEL=PREFIX ...] [dataset...]
+# Usage: scripts/instructions_aarch64.sh [--x86] [--cycles] [--config=FILE] [--function=LABEL=PREFIX ...] [dataset...]
 #   default datasets (rendered by the host build, scripts/demo.sh builds it): the V1_01 profile
 #   from 20 s for 3 s, seed 1, at 752x480 (scripts/instructions.sh's sequence) and with the D455
 #   camera at 848x480, and the real micro sequence ../shared/data/euroc/V1_01_easy_micro.
@@ -22,6 +22,8 @@
 #   --cycles: also estimate the pipeline's cycles per frame on a Cortex-A72 model: the blocks it ran
 #     through llvm-mca, the loads through a simulated Raspberry Pi 4 cache (32 KiB 2-way L1D, 1 MiB
 #     16-way L2), printed under the run's line (scripts/cycle_model.py; about 3x slower).
+#   --config=FILE: replay every run with this VINS-style YAML (`umsvins replay --config`), e.g. to
+#     price a knob such as max_steps_per_solve.
 #   --function=LABEL=PREFIX (up to 5): also count, on aarch64, the instructions while any function
 #     whose demangled name starts with PREFIX is active (callees included), printed per frame
 #     under the run's line; e.g. --function=klt=ums::klt_track --function='jtj=ums::solver::Problem::accumulate_two_row'.
@@ -36,10 +38,17 @@ cycles=0
 datasets=()
 fn_labels=()
 fn_prefixes=()
+config=()
+config_file=""
 for a in "$@"; do
   case "$a" in
     --x86) x86=1 ;;
     --cycles) cycles=1 ;;
+    --config=*)
+      config_file="${a#--config=}"
+      [[ -f "$config_file" ]] || { echo "instructions_aarch64: --config: $config_file: no such file" >&2; exit 64; }
+      config_file="$(cd "$(dirname "$config_file")" && pwd)/$(basename "$config_file")"
+      config=(--config "$config_file") ;;
     --function=*=*)
       spec="${a#--function=}"
       fn_labels+=("${spec%%=*}")
@@ -48,7 +57,7 @@ for a in "$@"; do
       [[ "${fn_labels[-1]}" =~ ^[A-Za-z0-9_]+$ ]] || { echo "instructions_aarch64: --function label '${fn_labels[-1]}' must be letters, digits or _" >&2; exit 64; }
       ;;
     -h|--help) sed -n '2,30p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
-    -*) echo "instructions_aarch64: unknown option '$a' (--x86, --cycles, --function=LABEL=PREFIX)" >&2; exit 64 ;;
+    -*) echo "instructions_aarch64: unknown option '$a' (--x86, --cycles, --config=FILE, --function=LABEL=PREFIX)" >&2; exit 64 ;;
     *) [[ -d "$a/mav0" ]] || { echo "instructions_aarch64: $a: not a EuRoC dataset (no mav0/)" >&2; exit 64; }
        datasets+=("$(cd "$a" && pwd)") ;;
   esac
@@ -193,7 +202,7 @@ count_aarch64() {  # dataset tag -> "frames frontend backend pipeline process" (
   local model_args=""
   [[ $cycles -eq 1 ]] && model_args=",blocks=$work/$tag.blocks,block_stage=pipeline,$cache_args"
   qemu-aarch64 -cpu cortex-a72 -L / -plugin "$plugin,out=$work/$tag.counts,$args$model_args" "$arm_umsvins" replay "$ds" \
-    --out "$work/$tag.arm" --quiet --deterministic >/dev/null
+    "${config[@]}" --out "$work/$tag.arm" --quiet --deterministic >/dev/null
   local c="$work/$tag.counts"
   field() { awk -v k="$1" -v l="$2" '$1 == k && $2 == l {print $3}' "$c"; }
   if [[ "$(field bias_found -)" != 1 || "$(field stack_overflows -)" != 0 ]]; then
@@ -230,7 +239,7 @@ count_aarch64() {  # dataset tag -> "frames frontend backend pipeline process" (
 }
 
 count_x86() {  # dataset -> "frames frontend backend pipeline process" (M per frame, callgrind)
-  "$root/scripts/instructions.sh" "$root/build/host" "$1" \
+  "$root/scripts/instructions.sh" "$root/build/host" "$1" "$config_file" \
     | awk '{ v[$1] = $2 } END { print v["frames"], v["frontend"], v["backend"], v["total"], v["process"] }'
 }
 
