@@ -259,12 +259,10 @@ class Problem {
   // Solves the damped system (lm_scale = 1/radius; 0 for Gauss-Newton); false on failure.
   bool compute_step(double lm_scale, double* model_cost_change);
   void form_reduced_system(double lm_scale, bool damp);
-  // Landmark l alone (the marginalization's, linearized one at a time).
-  void eliminate_landmark(int l, double lm_scale, MatrixMap S, DenseVector& rhs, bool damp);
   double invert_landmark1(int l, double lm_scale, bool damp);
   // 1-dof landmarks go in chunks of kDenseSchurRows dense rows (dense_v_, dense_schur.hpp).
   static constexpr int kDenseSchurRows = 32;
-  // marginalized: only the landmarks marked in marg_ (the marginalization's, from kept terms).
+  // marginalized: only the landmarks marked in marg_ (the marginalization's).
   void eliminate_all(double lm_scale, MatrixMap S, DenseVector& rhs, bool damp, bool marginalized = false);
   void gather_dense_row(int l, double w, int m, DenseVector& rhs);
   void flush_dense_rows(int n, MatrixMap S);
@@ -368,7 +366,7 @@ class Problem {
   DenseVector scale_red_;
   DenseVector d_red_;  // LM diagonal of the reduced blocks for the current step
   double dl_[capacity::kMaxEliminatedBlocks][3] = {};
-  // eliminate_all(), eliminate_landmark(): one chunk of landmarks' couplings as dense rows over
+  // eliminate_all(): one chunk of landmarks' couplings as dense rows over
   // the front rows, v and u = w v (zero outside the landmark's segments; u's entries doubled into
   // packets), and the first row each can be non-zero in.
   alignas(16) double dense_v_[kDenseSchurRows][capacity::kMaxReducedDim] = {};

@@ -98,8 +98,9 @@ SolverStatus Problem::linearize_marginalized() {
   return st;
 }
 
-// kept: the marginalized landmarks' terms are in H_, b_ and their own blocks already (they are
-// only eliminated); otherwise each is linearized first.
+// kept: the marginalized landmarks' terms are in H_, b_ and their own blocks already; otherwise
+// each is linearized first. Then they are eliminated together (eliminate_all: each element still
+// sums in landmark order).
 SolverStatus Problem::accumulate_marginalized(bool kept) {
   double r[capacity::kMaxResidualSize];
   double c = 0.0;
@@ -109,13 +110,11 @@ SolverStatus Problem::accumulate_marginalized(bool kept) {
     if (!evaluate_residual(rb, true, r, &c)) return SolverStatus::kInvalidInput;
     accumulate_residual(free_res_[q], r);
   }
-  if (kept) {
-    // All their terms are in: eliminated together (each element still sums in landmark order).
-    eliminate_all(0.0, H_.m(), b_, false, true);
-  } else {
+  if (!kept) {
     for (int l = 0; l < num_lm_; ++l)
       if (marg_[lm_block_[l]] && !linearize_marginalized_landmark(l)) return SolverStatus::kInvalidInput;
   }
+  eliminate_all(0.0, H_.m(), b_, false, true);
   for (int p = 0; p < num_priors_; ++p) {
     const PriorRef& pr = priors_[p];
     if (pr.fixed) continue;
@@ -248,7 +247,7 @@ SolverStatus Problem::reuse_marginalized() {
   return st;
 }
 
-// Landmark l's residuals accumulated, then l Schur-eliminated into H_, b_ (no damping).
+// Landmark l's residuals accumulated into its own blocks and H_, b_ (eliminated later).
 bool Problem::linearize_marginalized_landmark(int l) {
   double r[capacity::kMaxResidualSize];
   double c = 0.0;
@@ -262,9 +261,7 @@ bool Problem::linearize_marginalized_landmark(int l) {
     if (!evaluate_residual(residuals_[lm_res_[q]], true, r, &c)) return false;
     accumulate_residual(lm_res_[q], r);
   }
-  if (lifted && !finish_lift(l)) return false;
-  eliminate_landmark(l, 0.0, H_.m(), b_, false);
-  return true;
+  return !lifted || finish_lift(l);
 }
 
 // Partition the reduced rows into marginalized (m) and kept (k) blocks; the kept blocks' values

@@ -286,7 +286,7 @@ bool Problem::compute_step(double lm_scale, double* model_cost_change) {
   if (damp)
     for (int i = 0; i < n_red_; ++i) dDd += dx_[i] * dx_[i] * d_red_[i];
   for (int l = 0; l < num_lm_; ++l) {
-    if (std::isinf(dl_[l][0])) {  // skipped by eliminate_landmark: no step
+    if (std::isinf(dl_[l][0])) {  // skipped by the elimination (invert_landmark1): no step
       for (int p = 0; p < lm_dim_[l]; ++p) dl_[l][p] = 0.0;
       continue;
     }
@@ -311,19 +311,6 @@ void Problem::form_reduced_system(double lm_scale, bool damp) {
     d_red_[i] = lm_scale * std::clamp(H(i, i) * s2, min_diag_, max_diag_) / s2;
     S(i, i) += d_red_[i];
   }
-}
-
-// Schur complement of landmark l into S, rhs (rhs = reduced gradient). damp: add its LM diagonal.
-void Problem::eliminate_landmark(int l, double lm_scale, MatrixMap S, DenseVector& rhs,
-                                 bool damp) {
-  if (lm_dim_[l] != 1) {
-    eliminate_landmark_block(l, lm_scale, S, rhs, damp);
-    return;
-  }
-  const double w = invert_landmark1(l, lm_scale, damp);
-  if (w == 0.0) return;  // skipped: touches nothing
-  gather_dense_row(l, w, 0, rhs);
-  flush_dense_rows(1, S);
 }
 
 // 1-dof landmark l's damped h inverted: dl_[l][0] keeps w = 1/h for back-substitution, or inf
