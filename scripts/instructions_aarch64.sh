@@ -56,7 +56,7 @@ for a in "$@"; do
       [[ ${#fn_labels[@]} -le 5 ]] || { echo "instructions_aarch64: at most 5 --function options (the plugin follows 8 labels)" >&2; exit 64; }
       [[ "${fn_labels[-1]}" =~ ^[A-Za-z0-9_]+$ ]] || { echo "instructions_aarch64: --function label '${fn_labels[-1]}' must be letters, digits or _" >&2; exit 64; }
       ;;
-    -h|--help) sed -n '2,30p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,/^set -euo/p' "${BASH_SOURCE[0]}" | grep '^#' | sed 's/^# \{0,1\}//'; exit 0 ;;
     -*) echo "instructions_aarch64: unknown option '$a' (--x86, --cycles, --config=FILE, --function=LABEL=PREFIX)" >&2; exit 64 ;;
     *) [[ -d "$a/mav0" ]] || { echo "instructions_aarch64: $a: not a EuRoC dataset (no mav0/)" >&2; exit 64; }
        datasets+=("$(cd "$a" && pwd)") ;;

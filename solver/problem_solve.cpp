@@ -233,8 +233,8 @@ bool Problem::accept_step(LmState& s, double cand_cost, double relative_decrease
     ++s.summary.successful_steps;
     if (seconds_since(s.t0) >= o.max_time_s)
       return s.end(SolverStatus::kTimeBudget, Termination::kTimeBudget, s.x_cost + s.fixed);
-    return s.end(SolverStatus::kMaxIterations, s.iteration >= o.max_iterations ? Termination::kMaxIterations
-                                                                                : Termination::kMaxSuccessfulSteps,
+    // The budget first: a solve that took its N steps ended as designed, even on its last attempt.
+    return s.end(SolverStatus::kMaxIterations, last_step ? Termination::kMaxSuccessfulSteps : Termination::kMaxIterations,
                  s.x_cost + s.fixed);
   }
   s.x_norm = variable_x_norm();

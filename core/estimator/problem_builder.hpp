@@ -52,7 +52,6 @@ struct ProblemBuilderOptions {
   int min_relocation_residuals = 12;
 };
 
-// What one solve contains.
 // How far one solve may go: LM step attempts, accepted steps (0: no limit; the solve then ends
 // without linearizing at the last one, solver::SolverOptions::max_successful_steps) and wall time.
 struct SolveBudget {
@@ -61,6 +60,7 @@ struct SolveBudget {
   double time_s = 1e9;  // s
 };
 
+// What one solve contains.
 struct SolveSpec {
   std::uint8_t groups = kAllGroups;  // landmark classes
   bool imu = true;                   // IMU factors, bias prior, still constraints; else speed-bias fixed

@@ -134,6 +134,19 @@ TEST_CASE("Marginalization hint: anything changed since the last linearization f
     marginalize(s);
     CHECK_FALSE(s.problem->marginalization_reused());
   }
+  SECTION("the solve ended on its step budget (max_successful_steps), without linearizing there") {
+    Window s = make_window(true);
+    REQUIRE(s.problem->set_marginalization_hint(s.marg.data(), static_cast<int>(s.marg.size())) == SolverStatus::kOk);
+    SolverOptions o;
+    o.max_successful_steps = 1;
+    SolverSummary sum;
+    REQUIRE(usable(s.problem->solve(o, &sum)));
+    REQUIRE(sum.termination == Termination::kMaxSuccessfulSteps);
+    const auto after = marginalize(s);
+    CHECK_FALSE(s.problem->marginalization_reused());
+    const auto fresh = marginalize(s);  // the prior of a linearization at these values
+    check_same_prior(*after, *fresh);
+  }
   SECTION("a marginalized landmark's value moved by one ulp") {
     Window s = hinted(true, 10);
     const int l = s.marg.back() - (2 * s.F + 1);

@@ -970,6 +970,10 @@ TEST_CASE("max_successful_steps ends the solve after that many accepted steps, r
   const double x_capped = run(one.iterations, 0, &capped);
   CHECK(capped.termination == Termination::kMaxIterations);
   CHECK(x_capped == x_one);
+  // Budget and cap on the same attempt: the budget is reported (the solve took its steps).
+  SolverSummary both;
+  CHECK(run(one.iterations, 1, &both) == x_one);
+  CHECK(both.termination == Termination::kMaxSuccessfulSteps);
   const double x_two = run(50, 2, &two);
   CHECK(two.successful_steps == 2);
   CHECK(two.linearizations == 2);
