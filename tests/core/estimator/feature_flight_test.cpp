@@ -21,6 +21,22 @@ ums::test::FeatureFlightOptions flight(const char* name, double duration_s) {
   return o;
 }
 
+// 0.3 px of bearing noise and the calibrated IMU noise.
+ums::test::FeatureFlightOptions noisy_flight(const char* name, double duration_s) {
+  ums::test::FeatureFlightOptions o = flight(name, duration_s);
+  o.noise_px = 0.3;
+  o.imu_noise = true;
+  return o;
+}
+
+// Every frame has a finite pose, and every frame after t0_s is VIO.
+void check_vio_after(const ums::test::FeatureFlightResult& r, double t0_s) {
+  for (std::size_t i = 0; i < r.frame_t_s.size(); ++i) {
+    REQUIRE(r.frame_finite[i]);
+    if (r.frame_t_s[i] > t0_s) CHECK(r.frame_mode[i] == ums::EstimatorMode::kVio);
+  }
+}
+
 void print(const char* what, const ums::test::FeatureFlightResult& r) {
   std::printf("%s: %d frames, %d with a pose, %d VIO, ATE %.5f m, yaw drift %.3f deg/min\n", what, r.frames,
               r.valid_frames, r.vio_frames, r.ate_m, r.yaw_drift_deg_min);
@@ -92,9 +108,7 @@ TEST_CASE("feature flight: a 3 s blackout is VISION_LOST, not VIO, and VIO retur
 // singular covariance) and the first factor after it was trusted in full: V102 rendered, 0.5 s
 // lost at 20 s, went from 0.0074 to 0.235 m.
 TEST_CASE("feature flight: IMU holes of 0.5 s and 2 s keep VIO within 2x of the flight without them", "[estimator][features]") {
-  ums::test::FeatureFlightOptions o = flight("V102", 20.0);
-  o.noise_px = 0.3;
-  o.imu_noise = true;
+  ums::test::FeatureFlightOptions o = noisy_flight("V102", 20.0);
   const ums::test::FeatureFlightResult nominal = ums::test::fly_features(o);
   print("V102 no hole", nominal);
   for (const double hole_s : {0.5, 2.0}) {
@@ -103,10 +117,7 @@ TEST_CASE("feature flight: IMU holes of 0.5 s and 2 s keep VIO within 2x of the 
     const ums::test::FeatureFlightResult r = ums::test::fly_features(o);
     print(hole_s < 1.0 ? "V102 0.5 s hole" : "V102 2 s hole", r);
     CAPTURE(hole_s);
-    for (std::size_t i = 0; i < r.frame_t_s.size(); ++i) {
-      REQUIRE(r.frame_finite[i]);
-      if (r.frame_t_s[i] > 5.0) CHECK(r.frame_mode[i] == ums::EstimatorMode::kVio);
-    }
+    check_vio_after(r, 5.0);
     // Measured 1.08x (0.5 s) and 1.83x (2 s: the 10-frame window is vision alone for 1.5 s).
     CHECK(r.ate_m <= (hole_s < 1.0 ? 1.3 : 2.0) * nominal.ate_m);
   }
@@ -116,18 +127,13 @@ TEST_CASE("feature flight: IMU holes of 0.5 s and 2 s keep VIO within 2x of the 
 // accepted step, without the linearization that most often only finds the next step too small;
 // the next frame's solve continues from there. 0.3 px and the IMU's noise, 20 s of V102.
 TEST_CASE("feature flight: one accepted step per solve stays within 15 % of solves run to convergence", "[estimator][features]") {
-  ums::test::FeatureFlightOptions o = flight("V102", 20.0);
-  o.noise_px = 0.3;
-  o.imu_noise = true;
+  ums::test::FeatureFlightOptions o = noisy_flight("V102", 20.0);
   const ums::test::FeatureFlightResult full = ums::test::fly_features(o);
   print("V102 until converged", full);
   o.estimator.max_steps_stage = 1;
   const ums::test::FeatureFlightResult one = ums::test::fly_features(o);
   print("V102 one step per solve", one);
-  for (std::size_t i = 0; i < one.frame_t_s.size(); ++i) {
-    REQUIRE(one.frame_finite[i]);
-    if (one.frame_t_s[i] > 5.0) CHECK(one.frame_mode[i] == ums::EstimatorMode::kVio);
-  }
+  check_vio_after(one, 5.0);
   CHECK(one.ate_m <= 1.15 * full.ate_m);
   CHECK(one.ate_m != full.ate_m);  // the budget took effect
 }
@@ -153,9 +159,7 @@ TEST_CASE("feature flight: noisy bearings, vision only: yaw drifts less than 0.4
 // (Estimator::hold_gauge) these drifted 1.54 and -1.48 deg/min of yaw (ATE 0.0038 and 0.0137 m).
 TEST_CASE("feature flight: noisy bearings and IMU, VIO: yaw drifts less than 0.5 deg/min", "[estimator][features]") {
   for (const char* name : {"MH01", "V201"}) {
-    ums::test::FeatureFlightOptions o = flight(name, 60.0);
-    o.noise_px = 0.3;
-    o.imu_noise = true;
+    ums::test::FeatureFlightOptions o = noisy_flight(name, 60.0);
     const ums::test::FeatureFlightResult r = ums::test::fly_features(o);
     print(name, r);
     CHECK(std::abs(r.yaw_drift_deg_min) < 0.5);
