@@ -87,11 +87,24 @@ for arch in arm64 armhf; do
   fi
 done
 export DEBIAN_FRONTEND=noninteractive
+apt_update() {  # [apt options...]
+  "${sudo_cmd[@]}" apt-get update -qq "$@" || echo "deps: apt-get update reported errors, installing anyway" >&2
+}
+install_missing() {
+  "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+}
 # A mirror in mid-sync can fail one index; the install below still works from the others.
-"${sudo_cmd[@]}" apt-get update -qq || echo "deps: apt-get update reported errors, installing anyway" >&2
+apt_update
 if [[ ${#missing[@]} -gt 0 ]]; then
   echo "deps: installing ${missing[*]}"
-  "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+  if ! install_missing; then
+    # Seen 2026-12-06: a half-synced armhf security index also kept the arm64 one from being
+    # fetched, so the :arm64 libraries could not match the host's security versions. Fetch the
+    # indexes of the host and arm64 alone (armhf libraries are optional) and try again.
+    echo "deps: retrying with the host's and arm64's package indexes alone" >&2
+    apt_update -o "APT::Architectures::=$(dpkg --print-architecture)" -o "APT::Architectures::=arm64"
+    install_missing
+  fi
 fi
 if [[ ${#optional[@]} -gt 0 ]]; then
   echo "deps: installing ${optional[*]} (optional: armhf beyond the solver)"
