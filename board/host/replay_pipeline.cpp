@@ -16,6 +16,8 @@ FrontendOptions frontend_options_from(const AppConfig& config) {
   FrontendOptions o;
   o.max_cnt = config.max_cnt;
   o.detect_min_missing = config.detect_min_missing;
+  o.klt.sparse_from_level = config.klt_sparse_from_level;
+  o.confirm_sparse_from_level = config.klt_confirm_sparse_from_level;
   o.detector.min_distance_px = static_cast<float>(config.min_dist_px);
   o.ransac.threshold_px = static_cast<float>(config.f_threshold_px);
   return o;

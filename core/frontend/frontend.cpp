@@ -55,6 +55,9 @@ void FrontendOptions::validate() const {
   if (levels_3d < 1 || levels_3d > levels_2d) fail("levels_3d", levels_3d);
   if (levels_stereo < 1 || levels_stereo > capacity::kMaxPyramidLevels) fail("levels_stereo", levels_stereo);
   if (levels_back < 1 || levels_back > capacity::kMaxPyramidLevels) fail("levels_back", levels_back);
+  if (confirm_sparse_from_level < 0 || confirm_sparse_from_level > capacity::kMaxPyramidLevels) {
+    fail("confirm_sparse_from_level", confirm_sparse_from_level);
+  }
   if (stereo_retry_interval < 1 || stereo_retry_interval > 1000) fail("stereo_retry_interval", stereo_retry_interval);
   if (detect_min_missing < 1 || detect_min_missing > max_cnt) fail("detect_min_missing", detect_min_missing);
   if (!(fb_max_px > 0.0f)) fail("fb_max_px", static_cast<double>(fb_max_px));
@@ -67,6 +70,8 @@ void FrontendOptions::validate() const {
 
 Frontend::Frontend(const FrontendOptions& options, const RigCalibration& calib) : options_(options) {
   options_.validate();
+  confirm_klt_ = options_.klt;
+  confirm_klt_.sparse_from_level = options_.confirm_sparse_from_level;
   for (int c = 0; c < 2; ++c) {
     const CameraCalibration& cc = calib.cam[c];
     if (cc.width <= 0 || cc.height <= 0 || cc.width > capacity::kMaxImageWidth || cc.height > capacity::kMaxImageHeight ||
@@ -299,7 +304,7 @@ void Frontend::assign_template_slots(std::size_t first_new) {
 bool Frontend::confirmed(const ImagePyramid& from, const ImagePyramid& to, int levels, const Eigen::Vector2f& p_from,
                          const Eigen::Vector2f& p_to, float max_px, int slot) {
   Eigen::Vector2f back = p_from;
-  return klt_track(to, from, std::min(levels, options_.levels_back), options_.klt, p_to, &back, templates_.get(),
+  return klt_track(to, from, std::min(levels, options_.levels_back), confirm_klt_, p_to, &back, templates_.get(),
                    slot) == Status::kOk &&
          !((back - p_from).squaredNorm() > max_px * max_px);
 }

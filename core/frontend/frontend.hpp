@@ -45,6 +45,10 @@ struct FrontendOptions {
   // consistent match at 0.77x the front end's instructions; on the photo flights 1 and 2 levels
   // cost accuracy (docs/frontend.md, "Less work per frame"): the coarse levels see farther.
   int levels_back = 4;
+  // klt.sparse_from_level for the confirmation tracks: they only test a match against fb_max_px
+  // (their result is not kept), so they may iterate on the sparse window on more levels than the
+  // forward tracks. capacity::kMaxPyramidLevels (default): none.
+  int confirm_sparse_from_level = capacity::kMaxPyramidLevels;
   float fb_max_px = 0.5f;              // px, forward-backward disagreement allowed (temporal)
   float stereo_fb_max_px = 1.0f;       // px, right->left confirmation must land this close
   float stereo_epipolar_max_px = 1.5f; // px in cam1, distance of a 3D match to its epipolar line
@@ -148,6 +152,7 @@ class Frontend {
   Eigen::Vector2f predict(const Camera& cam, const Eigen::Matrix3f& R_curr_prev, const Eigen::Vector2f& uv) const;
 
   FrontendOptions options_;
+  KltOptions confirm_klt_;  // options_.klt with confirm_sparse_from_level
   Camera cam_[2];
   Eigen::Matrix3f R_c1_c0_ = Eigen::Matrix3f::Identity();
   Eigen::Vector3f t_c1_c0_ = Eigen::Vector3f::Zero();

@@ -171,6 +171,10 @@ inline void sample_chunk(const std::uint8_t* r0, const std::uint8_t* r1, const W
 // The widest source row: the largest patch (window + 2) in whole chunks, plus the right neighbour.
 constexpr int kMaxSrcRow = (KltOptions::kMaxWindowPx + 2 + kChunk - 1) / kChunk * kChunk + 1;
 constexpr int kMaxSrcRows = KltOptions::kMaxWindowPx + 3;
+// The sparse window: every other pixel of the window, window_px / 2 + 1 samples a side.
+constexpr int kMaxSparseSide = KltOptions::kMaxWindowPx / 2 + 1;
+constexpr int kMaxSparseSrcRow = 2 * ((kMaxSparseSide + kChunk - 1) / kChunk * kChunk);
+static_assert(2 * kMaxSparseSide <= kMaxSrcRows, "the sparse sampler reads two source rows per sample row");
 
 // Source pixels x0 .. x0 + src - 1 of row r (width w), the ones outside the row repeating its
 // end pixels.
@@ -215,6 +219,94 @@ void sample_fixed(const ImageView& image, float x, float y, int n, float* out) {
   }
 }
 
+// 8 samples two pixels apart (each from pixels 2i and 2i + 1 of the two source rows, read at
+// i .. i + 16): the same integer formula as sample_chunk, on the even and odd pixels.
+template <bool kGrey>
+inline void sample_chunk_step2(const std::uint8_t* r0, const std::uint8_t* r1, const Weights& w, float* out) {
+  constexpr float kInv = kGrey ? 1.0f / static_cast<float>(kWeightOne) : 1.0f;
+#if defined(__ARM_NEON)
+  const uint8x8x2_t a = vld2_u8(r0), b = vld2_u8(r1);  // val[0]: pixels 2i, val[1]: 2i + 1
+  uint16x8_t s = vmull_u8(a.val[0], vdup_n_u8(static_cast<std::uint8_t>(w.w00)));
+  s = vmlal_u8(s, a.val[1], vdup_n_u8(static_cast<std::uint8_t>(w.w01)));
+  s = vmlal_u8(s, b.val[0], vdup_n_u8(static_cast<std::uint8_t>(w.w10)));
+  s = vmlal_u8(s, b.val[1], vdup_n_u8(static_cast<std::uint8_t>(w.w11)));
+  float32x4_t lo = vcvtq_f32_u32(vmovl_u16(vget_low_u16(s))), hi = vcvtq_f32_u32(vmovl_u16(vget_high_u16(s)));
+  if constexpr (kGrey) {
+    lo = vmulq_n_f32(lo, kInv);
+    hi = vmulq_n_f32(hi, kInv);
+  }
+  vst1q_f32(out, lo);
+  vst1q_f32(out + 4, hi);
+#elif defined(__SSE2__)
+  const __m128i low_bytes = _mm_set1_epi16(0x00FF);
+  const __m128i a = _mm_loadu_si128(reinterpret_cast<const __m128i*>(r0));
+  const __m128i b = _mm_loadu_si128(reinterpret_cast<const __m128i*>(r1));
+  // 16-bit lanes: the low byte is pixel 2i, the high byte pixel 2i + 1.
+  __m128i s = _mm_mullo_epi16(_mm_and_si128(a, low_bytes), _mm_set1_epi16(static_cast<short>(w.w00)));
+  s = _mm_add_epi16(s, _mm_mullo_epi16(_mm_srli_epi16(a, 8), _mm_set1_epi16(static_cast<short>(w.w01))));
+  s = _mm_add_epi16(s, _mm_mullo_epi16(_mm_and_si128(b, low_bytes), _mm_set1_epi16(static_cast<short>(w.w10))));
+  s = _mm_add_epi16(s, _mm_mullo_epi16(_mm_srli_epi16(b, 8), _mm_set1_epi16(static_cast<short>(w.w11))));
+  const __m128i zero = _mm_setzero_si128();
+  __m128 lo = _mm_cvtepi32_ps(_mm_unpacklo_epi16(s, zero)), hi = _mm_cvtepi32_ps(_mm_unpackhi_epi16(s, zero));
+  if constexpr (kGrey) {
+    lo = _mm_mul_ps(lo, _mm_set1_ps(kInv));
+    hi = _mm_mul_ps(hi, _mm_set1_ps(kInv));
+  }
+  _mm_storeu_ps(out, lo);
+  _mm_storeu_ps(out + 4, hi);
+#else
+  for (int i = 0; i < kChunk; ++i) {
+    const int v = w.w00 * r0[2 * i] + w.w01 * r0[2 * i + 1] + w.w10 * r1[2 * i] + w.w11 * r1[2 * i + 1];
+    out[i] = static_cast<float>(v) * kInv;
+  }
+#endif
+}
+
+// sample_sparse_bilinear's contract (kGrey false: 128 times the grey levels): n x n samples two
+// pixels apart from (x, y), each the value sample_fixed gives at its position. In place when the
+// source block (whole chunks of 16 pixels) lies inside the image, else from copied rows with the
+// border pixels repeated.
+template <bool kGrey>
+void sample_fixed_step2(const ImageView& image, float x, float y, int n, float* out) {
+  const float fx0 = std::floor(x), fy0 = std::floor(y);
+  const int x0 = static_cast<int>(fx0), y0 = static_cast<int>(fy0);
+  const Weights w = quantized_weights(x - fx0, y - fy0);
+  const int cols = (n + kChunk - 1) / kChunk * kChunk;
+  const int src = 2 * cols;
+  const std::uint8_t* rows[kMaxSrcRows];
+  std::uint8_t copy[kMaxSrcRows][kMaxSparseSrcRow];
+  const int ymax = image.height - 1;
+  const bool inside = x0 >= 0 && x0 + src <= image.width;
+  if (inside && y0 >= 0 && y0 + 2 * n <= image.height && n % kChunk == 0) {
+    // The common case (window_px 15: one chunk per row), away from the image edges: the source
+    // rows in place, walked by stride.
+    const long stride = image.stride;
+    const std::uint8_t* r = image.row(y0) + x0;
+    for (int j = 0; j < n; ++j, r += 2 * stride)
+      for (int i = 0; i < n; i += kChunk) sample_chunk_step2<kGrey>(r + 2 * i, r + stride + 2 * i, w, out + j * n + i);
+    return;
+  }
+  // Sample row j reads source rows y0 + 2j and y0 + 2j + 1.
+  for (int j = 0; j < n; ++j) {
+    for (int k = 0; k < 2; ++k) {
+      const std::uint8_t* r = image.row(std::clamp(y0 + 2 * j + k, 0, ymax));
+      if (inside) {
+        rows[2 * j + k] = r + x0;
+      } else {
+        clamped_row(r, image.width, x0, src, copy[2 * j + k]);
+        rows[2 * j + k] = copy[2 * j + k];
+      }
+    }
+  }
+  alignas(16) float scratch[kMaxSparseSrcRow];
+  for (int j = 0; j < n; ++j) {
+    float* o = j * n + cols <= n * n ? out + j * n : scratch;
+    for (int i = 0; i < cols; i += kChunk)
+      sample_chunk_step2<kGrey>(rows[2 * j] + 2 * i, rows[2 * j + 1] + 2 * i, w, o + i);
+    if (o == scratch) std::memcpy(out + j * n, scratch, sizeof(float) * static_cast<std::size_t>(n));
+  }
+}
+
 void check_patch_size(int n) {
   if (n < 1 || n > KltOptions::kMaxWindowPx + 2) {
     throw std::invalid_argument("sample_patch_bilinear: n must be in 1.." + std::to_string(KltOptions::kMaxWindowPx + 2) +
@@ -254,6 +346,10 @@ void KltOptions::validate() const {
     throw std::invalid_argument("KltOptions.coarse_epsilon_px must be > 0, got " + std::to_string(coarse_epsilon_px));
   }
   if (!(min_eigen >= 0.0f)) throw std::invalid_argument("KltOptions.min_eigen must be >= 0, got " + std::to_string(min_eigen));
+  if (sparse_from_level < 0 || sparse_from_level > capacity::kMaxPyramidLevels) {
+    throw std::invalid_argument("KltOptions.sparse_from_level must be in 0.." + std::to_string(capacity::kMaxPyramidLevels) +
+                                ", got " + std::to_string(sparse_from_level));
+  }
   if (!(max_mean_abs_error > 0.0f)) {
     throw std::invalid_argument("KltOptions.max_mean_abs_error must be > 0, got " + std::to_string(max_mean_abs_error));
   }
@@ -262,6 +358,14 @@ void KltOptions::validate() const {
 void sample_patch_bilinear(const ImageView& image, float x, float y, int n, float* out) {
   check_patch_size(n);
   sample_fixed<true>(image, x, y, n, out);
+}
+
+void sample_sparse_bilinear(const ImageView& image, float x, float y, int n, float* out) {
+  if (n < 1 || n > kMaxSparseSide) {
+    throw std::invalid_argument("sample_sparse_bilinear: n must be in 1.." + std::to_string(kMaxSparseSide) + ", got " +
+                                std::to_string(n));
+  }
+  sample_fixed_step2<true>(image, x, y, n, out);
 }
 
 namespace {
@@ -277,6 +381,10 @@ struct KltWorkspace {
   alignas(16) float gx[kMaxN * kMaxN + kLanes];
   alignas(16) float gy[kMaxN * kMaxN + kLanes];
   alignas(16) float warped[kMaxN * kMaxN];
+  // A sparse level's template: every other sample of the (dense) template, and its gradients.
+  alignas(16) float sparse_tmpl[kMaxSparseSide * kMaxSparseSide + kLanes];
+  alignas(16) float sparse_gx[kMaxSparseSide * kMaxSparseSide + kLanes];
+  alignas(16) float sparse_gy[kMaxSparseSide * kMaxSparseSide + kLanes];
 };
 
 // A level's template, in the workspace or in a cache block.
@@ -293,22 +401,61 @@ int template_stride(int n) { return (n * n + 2 * kLanes - 1) / kLanes * kLanes; 
 // A cache block: template, gradients, then the sums and the usable flag.
 constexpr int kSumFloats = 8;
 
+// The smallest eigenvalue of the mean structure tensor is at least min_eigen (the samples are
+// 128 x grey levels, sample_chunk: the tensor is 128^2 x (grey/px)^2).
+bool textured(const GradientSums& gs, int samples, const KltOptions& options) {
+  const float inv_area = 1.0f / static_cast<float>(samples);
+  const float a = gs.gxx * inv_area, b = gs.gxy * inv_area, c2 = gs.gyy * inv_area;
+  const float min_eig = 0.5f * ((a + c2) - std::sqrt((a - c2) * (a - c2) + 4.0f * b * b));
+  constexpr float kScale2 = static_cast<float>(kWeightOne * kWeightOne);
+  return min_eig >= options.min_eigen * kScale2 && min_eig > 0.0f;
+}
+
 // Samples the template around p in I and its gradients into t (arrays of n * n + kLanes floats).
 // False when the window is untextured: the smallest eigenvalue of the mean structure tensor is
 // below min_eigen.
 bool prepare_template(const ImageView& I, const Eigen::Vector2f& p, const KltOptions& options, float* tmpl_ext,
                       TemplateRef* t) {
   const int n = options.window_px, half = n / 2, ne = n + 2, nn = n * n;
-  const float inv_area = 1.0f / static_cast<float>(nn);
   sample_fixed<false>(I, p.x() - static_cast<float>(half + 1), p.y() - static_cast<float>(half + 1), ne, tmpl_ext);
   std::fill(tmpl_ext + ne * ne, tmpl_ext + ne * ne + kLanes, 0.0f);  // read by the last row's spare lanes
   template_and_gradients(tmpl_ext, n, t->tmpl, t->gx, t->gy);
   t->gs = gradient_sums(t->gx, t->gy, nn);
-  const float a = t->gs.gxx * inv_area, b = t->gs.gxy * inv_area, c2 = t->gs.gyy * inv_area;
-  const float min_eig = 0.5f * ((a + c2) - std::sqrt((a - c2) * (a - c2) + 4.0f * b * b));
-  // The samples are 128 x grey levels (sample_chunk), the tensor 128^2 x (grey/px)^2.
-  constexpr float kScale2 = static_cast<float>(kWeightOne * kWeightOne);
-  return min_eig >= options.min_eigen * kScale2 && min_eig > 0.0f;
+  return textured(t->gs, nn, options);
+}
+
+// The samples a level's iterations use: the whole window (step 1, side window_px) or every other
+// pixel in both directions (step 2, side window_px / 2 + 1), both from the window's top-left.
+struct WindowGrid {
+  int side = 0;
+  int step = 1;
+  int samples() const { return side * side; }
+};
+
+// The sparse grid's template from the dense one t (window n): its samples and gradients at the
+// even rows and columns, and their sums. False when that sparse template is untextured (the
+// level then iterates on the dense one).
+bool sparse_template(const TemplateRef& t, int n, const KltOptions& options, KltWorkspace* ws, TemplateRef* s) {
+  const int side = n / 2 + 1;
+  for (int j = 0; j < side; ++j) {
+    for (int i = 0; i < side; ++i) {
+      const int d = 2 * j * n + 2 * i, k = j * side + i;
+      ws->sparse_tmpl[k] = t.tmpl[d];
+      ws->sparse_gx[k] = t.gx[d];
+      ws->sparse_gy[k] = t.gy[d];
+    }
+  }
+  *s = TemplateRef{ws->sparse_tmpl, ws->sparse_gx, ws->sparse_gy, gradient_sums(ws->sparse_gx, ws->sparse_gy, side * side)};
+  return textured(s->gs, side * side, options);
+}
+
+// The window at top-left (x, y) on grid g, in 128 x grey levels.
+void sample_window(const ImageView& J, float x, float y, const WindowGrid& g, float* out) {
+  if (g.step == 1) {
+    sample_fixed<false>(J, x, y, g.side, out);
+  } else {
+    sample_fixed_step2<false>(J, x, y, g.side, out);
+  }
 }
 
 // Level `level`'s template of p_prev in prev (p: the same point in the level's pixels): read
@@ -342,8 +489,9 @@ bool level_template(const ImagePyramid& prev, int level, const Eigen::Vector2f& 
 // locked onto something else). *converged: the last update was below epsilon_px, so warped
 // (sampled before it) is the window at the result to within epsilon_px.
 bool iterate_level(const ImageView& J, const Eigen::Vector2f& p, const Eigen::Vector2f& g, const KltOptions& options,
-                   float epsilon_px, const TemplateRef& t, float* warped, Eigen::Vector2f* nu, bool* converged) {
-  const int n = options.window_px, half = n / 2, nn = n * n;
+                   float epsilon_px, const TemplateRef& t, const WindowGrid& grid, float* warped, Eigen::Vector2f* nu,
+                   bool* converged) {
+  const int half = options.window_px / 2, nn = grid.samples();
   const float inv_area = 1.0f / static_cast<float>(nn);
   const GradientSums& gs = t.gs;
   const float inv_det = 1.0f / (gs.gxx * gs.gyy - gs.gxy * gs.gxy);
@@ -355,7 +503,7 @@ bool iterate_level(const ImageView& J, const Eigen::Vector2f& p, const Eigen::Ve
           qx < static_cast<float>(J.width + half) && qy < static_cast<float>(J.height + half))) {
       return false;
     }
-    sample_fixed<false>(J, qx - static_cast<float>(half), qy - static_cast<float>(half), n, warped);
+    sample_window(J, qx - static_cast<float>(half), qy - static_cast<float>(half), grid, warped);
     // Intensity offset between the windows (exposure, or the two cameras' gains) removed:
     // e = (T - mean T) - (J - mean J) = d - mean d with d = T - J, so
     // sum e g = sum d g - mean(d) sum g (d is small near convergence: no cancellation).
@@ -390,19 +538,24 @@ Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels,
   // Displacement (guess + flow) carried from level to level, in the current level's pixels.
   Eigen::Vector2f g = (*p_curr - p_prev) * top_scale;
   bool converged = false;
-  TemplateRef t;
+  TemplateRef dense, t;
+  const WindowGrid dense_grid{options.window_px, 1}, sparse_grid{half + 1, 2};
+  WindowGrid grid = dense_grid;
   for (int level = levels - 1; level >= 0; --level) {
     const Eigen::Vector2f p = p_prev * (1.0f / static_cast<float>(1 << level));
     // A coarse level that cannot be used (blurred flat, or mostly outside a small image) is
     // skipped: the finer levels still refine the carried displacement. Level 0 must succeed.
-    if (!level_template(prev, level, p_prev, p, options, cache, slot, &ws, &t)) {
+    if (!level_template(prev, level, p_prev, p, options, cache, slot, &ws, &dense)) {
       if (level == 0) return Status::kNotConverged;
       g *= 2.0f;
       continue;
     }
+    const bool sparse = level >= options.sparse_from_level && sparse_template(dense, options.window_px, options, &ws, &t);
+    if (!sparse) t = dense;
+    grid = sparse ? sparse_grid : dense_grid;
     Eigen::Vector2f nu;
     if (!iterate_level(curr.level(level), p, g, options, level == 0 ? options.epsilon_px : options.coarse_epsilon_px, t,
-                       ws.warped, &nu, &converged)) {
+                       grid, ws.warped, &nu, &converged)) {
       if (level == 0) return Status::kNotConverged;
       nu.setZero();
     }
@@ -417,12 +570,10 @@ Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels,
   // Photometric check at level 0 (the template was sampled at level 0 in the last pass), on the
   // last iteration's window when it is within epsilon_px of the result.
   if (!converged) {
-    sample_fixed<false>(J0, result.x() - static_cast<float>(half), result.y() - static_cast<float>(half),
-                        options.window_px, ws.warped);
+    sample_window(J0, result.x() - static_cast<float>(half), result.y() - static_cast<float>(half), grid, ws.warped);
   }
-  const int nn = options.window_px * options.window_px;
-  // In 128 x grey levels, as the samples.
-  if (!(mean_abs_error(t.tmpl, ws.warped, nn) <= options.max_mean_abs_error * static_cast<float>(kWeightOne))) {
+  // In 128 x grey levels, as the samples; on level 0's grid.
+  if (!(mean_abs_error(t.tmpl, ws.warped, grid.samples()) <= options.max_mean_abs_error * static_cast<float>(kWeightOne))) {
     return Status::kNotConverged;
   }
   *p_curr = result;

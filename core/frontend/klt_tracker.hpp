@@ -11,6 +11,7 @@
 
 #include <Eigen/Core>
 
+#include "core/common/capacity.hpp"
 #include "core/common/image_view.hpp"
 #include "core/common/status.hpp"
 #include "core/frontend/image_pyramid.hpp"
@@ -27,6 +28,11 @@ struct KltOptions {
                                     // refines their result anyway, it only needs its basin
   float min_eigen = 1.0f;         // (grey/px)^2, min eigenvalue of the mean structure tensor
   float max_mean_abs_error = 25.0f;  // grey levels, mean |I - J - offset| over the window after tracking
+  // Levels from this one up iterate on every other pixel of the window in both directions
+  // (window_px / 2 + 1 samples a side, a quarter of the work per iteration; the template and its
+  // texture test stay whole-window, so a template cache serves both). A level whose sparse
+  // template is untextured stays dense. capacity::kMaxPyramidLevels (default): none.
+  int sparse_from_level = capacity::kMaxPyramidLevels;
 
   static constexpr int kMaxWindowPx = 31;  // px, bound of the stack patches
   // Throws std::invalid_argument naming the field and its value.
@@ -55,5 +61,10 @@ int klt_template_floats(int window_px);
 // outside the image use the nearest border pixel. out has n*n floats; n is
 // 1..KltOptions::kMaxWindowPx + 2 (std::invalid_argument otherwise).
 void sample_patch_bilinear(const ImageView& image, float x, float y, int n, float* out);
+
+// The n x n samples of sample_patch_bilinear's 2n - 1 patch at (x, y) that lie on its even rows
+// and columns (two pixels apart), the same values bit for bit: the sparse window. n is
+// 1..KltOptions::kMaxWindowPx / 2 + 1 (std::invalid_argument otherwise).
+void sample_sparse_bilinear(const ImageView& image, float x, float y, int n, float* out);
 
 }  // namespace ums

@@ -6,6 +6,7 @@
 
 #include "core/common/capacity.hpp"
 #include "core/estimator/estimator_options.hpp"
+#include "core/frontend/frontend.hpp"
 #include "hal/replay/euroc_sensor_yaml.hpp"
 #include "tests/common/test_paths.hpp"
 
@@ -165,6 +166,20 @@ TEST_CASE("config from the dataset's calibration keeps it and the defaults", "[c
   CHECK_NOTHROW(config.validate());
 }
 
+TEST_CASE("the KLT's sparse levels are keys; without them, the front end's defaults", "[config]") {
+  const std::string dir = ums::test::make_temp_dir("config_klt_sparse");
+  std::vector<std::string> warnings;
+  const ums::AppConfig c = ums::load_config(
+      write_vins_config(dir, std::string(kVinsConfig) + "klt_sparse_from_level: 2\nklt_confirm_sparse_from_level: 1\n"),
+      micro_calibration(), &warnings);
+  CHECK(warnings.empty());
+  CHECK(c.klt_sparse_from_level == 2);
+  CHECK(c.klt_confirm_sparse_from_level == 1);
+  const ums::AppConfig d = ums::config_from_calibration(micro_calibration());
+  CHECK(d.klt_sparse_from_level == ums::FrontendOptions{}.klt.sparse_from_level);
+  CHECK(d.klt_confirm_sparse_from_level == ums::FrontendOptions{}.confirm_sparse_from_level);
+}
+
 TEST_CASE("a VINS-Fusion stereo-IMU config is read with its camodocal files and no warnings", "[config]") {
   const std::string path = write_vins_config(ums::test::make_temp_dir("config_vins"));
   std::vector<std::string> warnings;
@@ -284,6 +299,9 @@ TEST_CASE("each invalid value stops with file, key, value and the allowed range"
       {"max_cnt: 150", "max_cnt: 150.5", "key 'max_cnt': value 150.5, allowed 1.."},
       {"max_cnt: 150", "max_cnt: many", "key 'max_cnt': value 'many', allowed 1.."},
       {"max_cnt: 150", "max_cnt: 150\ndetect_min_missing: 0", "key 'detect_min_missing': value 0, allowed 1.."},
+      {"max_cnt: 150", "max_cnt: 150\nklt_sparse_from_level: 5", "key 'klt_sparse_from_level': value 5, allowed 0..4"},
+      {"max_cnt: 150", "max_cnt: 150\nklt_confirm_sparse_from_level: -1",
+       "key 'klt_confirm_sparse_from_level': value -1, allowed 0..4"},
       {"min_dist: 30", "min_dist: -3", "key 'min_dist': value -3, allowed 1..200 px"},
       {"F_threshold: 1.0", "F_threshold: 0", "key 'F_threshold': value 0, allowed 0.01..10 px"},
       {"keyframe_parallax: 10.0", "keyframe_parallax: 1000", "key 'keyframe_parallax': value 1000, allowed 0.1..100 px"},

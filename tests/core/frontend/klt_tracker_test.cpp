@@ -48,7 +48,9 @@ struct Scene {
 // tracking back returns within 0.5 px, as in the front end) and compares with the exact
 // transform.
 KltResult track_transformed(double angle_rad, Eigen::Vector2d shift, int levels, bool use_truth_guess = false,
-                            int window_px = ums::KltOptions{}.window_px) {
+                            int window_px = ums::KltOptions{}.window_px,
+                            int sparse_from_level = ums::KltOptions{}.sparse_from_level,
+                            int confirm_sparse_from_level = ums::KltOptions{}.sparse_from_level) {
   const Scene sc(angle_rad, shift);
   const int w = Scene::kW, h = Scene::kH, n = sc.n;
   const Eigen::Vector2d pivot = sc.pivot;
@@ -57,6 +59,9 @@ KltResult track_transformed(double angle_rad, Eigen::Vector2d shift, int levels,
   REQUIRE(n > 50);
   ums::KltOptions opt;
   opt.window_px = window_px;
+  opt.sparse_from_level = sparse_from_level;
+  ums::KltOptions confirm = opt;
+  confirm.sparse_from_level = confirm_sparse_from_level;
   KltResult r;
   double sq = 0.0;
   for (int i = 0; i < n; ++i) {
@@ -67,7 +72,7 @@ KltResult track_transformed(double angle_rad, Eigen::Vector2d shift, int levels,
     if (ums::klt_track(pa, pb, levels, opt, pts[i], &p) != ums::Status::kOk) continue;
     // Forward-backward check as the front end applies it (0.5 px).
     Eigen::Vector2f back = pts[i];
-    if (ums::klt_track(pb, pa, levels, opt, p, &back) != ums::Status::kOk || (back - pts[i]).norm() > 0.5f) continue;
+    if (ums::klt_track(pb, pa, levels, confirm, p, &back) != ums::Status::kOk || (back - pts[i]).norm() > 0.5f) continue;
     ++r.tracked;
     const double e = (p.cast<double>() - truth).norm();
     sq += e * e;
@@ -81,12 +86,15 @@ KltResult track_transformed(double angle_rad, Eigen::Vector2d shift, int levels,
 // Forward tracks on 4 levels (a 1 degree rotation and a 7.3 px shift), displaced by `error` px
 // (a wrong match), then the front end's confirmation: tracked back on `levels_back` levels from
 // the forward track's origin, kept within 0.5 px. Returns how many of the forward tracks it kept.
-int confirmed_tracks(int levels_back, Eigen::Vector2f error, int* forward) {
+int confirmed_tracks(int levels_back, Eigen::Vector2f error, int* forward,
+                     int confirm_sparse_from_level = ums::KltOptions{}.sparse_from_level) {
   const Scene sc(1.0 * M_PI / 180.0, Eigen::Vector2d(7.3, -4.6));
   const int n = sc.n;
   const Eigen::Vector2f* pts = sc.pts;
   const ums::ImagePyramid &pa = sc.pa, &pb = sc.pb;
   const ums::KltOptions opt;
+  ums::KltOptions confirm;
+  confirm.sparse_from_level = confirm_sparse_from_level;
   int kept = 0;
   *forward = 0;
   for (int i = 0; i < n; ++i) {
@@ -94,7 +102,7 @@ int confirmed_tracks(int levels_back, Eigen::Vector2f error, int* forward) {
     if (ums::klt_track(pa, pb, 4, opt, pts[i], &p) != ums::Status::kOk) continue;
     ++*forward;
     Eigen::Vector2f back = pts[i];
-    if (ums::klt_track(pb, pa, levels_back, opt, p + error, &back) == ums::Status::kOk && (back - pts[i]).norm() <= 0.5f) ++kept;
+    if (ums::klt_track(pb, pa, levels_back, confirm, p + error, &back) == ums::Status::kOk && (back - pts[i]).norm() <= 0.5f) ++kept;
   }
   return kept;
 }
@@ -153,6 +161,70 @@ TEST_CASE("a 40 px motion needs the pyramid: 1 level fails, 4 levels succeed, a 
   CHECK(four.rms_px < 0.05);
   CHECK(guided.tracked >= 0.95 * guided.attempted);
   CHECK(guided.rms_px < 0.05);
+}
+
+TEST_CASE("sparse coarse levels track as the whole window does; level 0 decides the precision") {
+  // The coarse levels only carry the displacement into level 0's basin: iterating them on every
+  // other pixel (a quarter of the samples) leaves the result to level 0's whole window. A sparse
+  // level 0 as well keeps the tracks but loses some precision (a quarter of the samples).
+  const Eigen::Vector2d shift(7.3, -4.6);
+  const double angle = 1.0 * M_PI / 180.0;
+  const int kNone = ums::KltOptions{}.sparse_from_level;
+  const KltResult dense = track_transformed(angle, shift, 4);
+  const KltResult coarse = track_transformed(angle, shift, 4, false, 15, 1, kNone);
+  const KltResult all = track_transformed(angle, shift, 4, false, 15, 0, kNone);
+  INFO("tracked / rms px: dense " << dense.tracked << " / " << dense.rms_px << ", sparse from level 1 " << coarse.tracked
+                                  << " / " << coarse.rms_px << ", sparse on every level " << all.tracked << " / "
+                                  << all.rms_px << " (of " << dense.attempted << ")");
+  CHECK(coarse.tracked >= dense.tracked - 1);
+  CHECK(std::abs(coarse.rms_px - dense.rms_px) < 0.005);
+  CHECK(all.tracked >= 0.9 * all.attempted);
+  CHECK(all.rms_px < dense.rms_px + 0.01);
+  // A 40 px jump (21 px window): the sparse coarse levels still find level 0's basin.
+  const KltResult jump = track_transformed(0.0, Eigen::Vector2d(40.0, 12.0), 4, false, 21, 1, kNone);
+  INFO("40 px jump, sparse from level 1: " << jump.tracked << "/" << jump.attempted << " rms " << jump.rms_px);
+  CHECK(jump.tracked >= 0.9 * jump.attempted);
+  CHECK(jump.rms_px < 0.05);
+}
+
+TEST_CASE("sparse confirmations keep the good tracks and drop displaced ones, as whole-window ones do") {
+  int forward = 0;
+  const int good = confirmed_tracks(4, Eigen::Vector2f::Zero(), &forward, 0);
+  const int near = confirmed_tracks(4, Eigen::Vector2f(0.9f, -0.6f), &forward, 0);
+  const int far = confirmed_tracks(4, Eigen::Vector2f(-5.0f, 3.0f), &forward, 0);
+  INFO("forward " << forward << "; kept with sparse confirmations: exact " << good << ", 1.1 px off " << near
+                  << ", 5.8 px off " << far);
+  REQUIRE(forward > 50);
+  CHECK(good >= 0.95 * forward);
+  CHECK(near == 0);
+  CHECK(far <= 0.02 * forward);
+}
+
+TEST_CASE("a level whose sparse window sees no texture iterates on the whole window") {
+  // Single bright pixels at odd coordinates: a window centred on an odd pixel has its sparse
+  // samples on even rows and columns, where every central difference is zero.
+  const int w = 120, h = 100;
+  auto dots = [&](int dx, int dy) {
+    ums::test::GreyImage img(w, h, 40);
+    for (int y = 3; y + dy < h; y += 6)
+      for (int x = 1; x + dx < w; x += 10) img.pixels[static_cast<std::size_t>((y + dy) * w + x + dx)] = 220;
+    return img;
+  };
+  const ums::test::GreyImage a = dots(0, 0), b = dots(1, 1);
+  ums::ImagePyramid pa(w, h, 1), pb(w, h, 1);
+  REQUIRE(pa.build(a.view()) == ums::Status::kOk);
+  REQUIRE(pb.build(b.view()) == ums::Status::kOk);
+  ums::KltOptions dense_opt, sparse_opt;
+  sparse_opt.sparse_from_level = 0;
+  const Eigen::Vector2f p0(61.0f, 51.0f);
+  Eigen::Vector2f p_dense = p0 + Eigen::Vector2f(0.6f, 0.7f), p_sparse = p_dense;
+  REQUIRE(ums::klt_track(pa, pb, 1, dense_opt, p0, &p_dense) == ums::Status::kOk);
+  REQUIRE(ums::klt_track(pa, pb, 1, sparse_opt, p0, &p_sparse) == ums::Status::kOk);
+  INFO("dense " << p_dense.transpose() << ", sparse " << p_sparse.transpose());
+  CHECK(std::abs(p_dense.x() - 62.0f) < 0.01f);
+  CHECK(std::abs(p_dense.y() - 52.0f) < 0.01f);
+  CHECK(p_sparse.x() == p_dense.x());
+  CHECK(p_sparse.y() == p_dense.y());
 }
 
 TEST_CASE("KLT refuses an untextured window") {
@@ -238,6 +310,45 @@ TEST_CASE("bilinear patch sampling equals the fixed-point formula bit for bit, i
   // Beyond the stack rows it was sized for: refused, not overrun.
   CHECK_THROWS_AS(ums::sample_patch_bilinear(v, 3.0f, 3.0f, ums::KltOptions::kMaxWindowPx + 3, out), std::invalid_argument);
   CHECK_THROWS_AS(ums::sample_patch_bilinear(v, 3.0f, 3.0f, 0, out), std::invalid_argument);
+}
+
+TEST_CASE("sparse window samples equal the whole patch's on its even rows and columns, bit for bit") {
+  const int w = 80, h = 60;
+  ums::test::GreyImage img(w, h);
+  std::uint32_t s = 2463534242u;
+  for (auto& p : img.pixels) {
+    s ^= s << 13;
+    s ^= s >> 17;
+    s ^= s << 5;
+    p = static_cast<std::uint8_t>(s >> 24);
+  }
+  const ums::ImageView v = img.view();
+  float out[16 * 16];
+  int mismatches = 0, samples = 0;
+  const int sizes[6] = {1, 3, 5, 8, 9, 16};
+  const float origins[7][2] = {{3.25f, 4.75f}, {20.5f, 11.125f}, {12.0f, 7.0f}, {5.0001f, 9.9999f},
+                               {-2.3f, 5.5f},  {60.2f, 30.6f},   {10.0f, -1.5f}};
+  for (int n : sizes) {
+    // In place the kernel reads whole chunks of 16 pixels and 2n rows: origins where those reads
+    // end exactly at the right or bottom edge (in place) and one pixel further (copied rows).
+    const int src = (n + 7) / 8 * 16;
+    const float ex = static_cast<float>(w - src), ey = static_cast<float>(h - 2 * n);
+    const float edge_origins[4][2] = {{ex + 0.375f, 2.5f}, {ex + 1.375f, 2.5f}, {1.5f, ey + 0.25f}, {1.5f, ey + 1.25f}};
+    for (int k = 0; k < 11; ++k) {
+      const float* o = k < 7 ? origins[k] : edge_origins[k - 7];
+      ums::sample_sparse_bilinear(v, o[0], o[1], n, out);
+      for (int j = 0; j < n; ++j) {
+        for (int i = 0; i < n; ++i) {
+          mismatches += out[j * n + i] != fixed_point_reference(v, o[0], o[1], 2 * i, 2 * j) ? 1 : 0;
+          ++samples;
+        }
+      }
+    }
+  }
+  CHECK(samples == 11 * (1 + 9 + 25 + 64 + 81 + 256));
+  CHECK(mismatches == 0);
+  CHECK_THROWS_AS(ums::sample_sparse_bilinear(v, 3.0f, 3.0f, ums::KltOptions::kMaxWindowPx / 2 + 2, out), std::invalid_argument);
+  CHECK_THROWS_AS(ums::sample_sparse_bilinear(v, 3.0f, 3.0f, 0, out), std::invalid_argument);
 }
 
 TEST_CASE("fixed-point bilinear samples stay within half a grey level of exact bilinear interpolation on a textured image") {
