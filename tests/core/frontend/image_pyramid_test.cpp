@@ -36,6 +36,20 @@ TEST_CASE("pyramid level 1 of a linear ramp samples the ramp at twice the coordi
   for (int x = 2; x < 98; ++x) CHECK(std::abs(pyr.level(1).row(20)[x] - 2 * x) <= 1);
 }
 
+TEST_CASE("a white image stays white on every level: the largest sums fit the 16-bit lanes") {
+  // 16 * 255 per column, times 16 across, plus 128 for the rounding: 65,408, just below 2^16.
+  ums::test::GreyImage img(100, 40, 255);
+  ums::ImagePyramid pyr(100, 40, 3);
+  REQUIRE(pyr.build(img.view()) == ums::Status::kOk);
+  int not_white = 0;
+  for (int l = 1; l < 3; ++l) {
+    const ums::ImageView& v = pyr.level(l);
+    for (int y = 0; y < v.height; ++y)
+      for (int x = 0; x < v.width; ++x) not_white += v.row(y)[x] != 255 ? 1 : 0;
+  }
+  CHECK(not_white == 0);
+}
+
 TEST_CASE("pyramid levels equal the direct clamped 5x5 binomial formula at every pixel, any size") {
   // Widths and heights of every parity, down to 1 px: the border columns and rows take the
   // clamped path, the rest the unclamped loops.
