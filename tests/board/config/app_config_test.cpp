@@ -166,7 +166,7 @@ TEST_CASE("config from the dataset's calibration keeps it and the defaults", "[c
   CHECK_NOTHROW(config.validate());
 }
 
-TEST_CASE("the KLT's sparse levels are keys; without them, the front end's defaults", "[config]") {
+TEST_CASE("the KLT's sparse levels are keys, and without them the front end's defaults hold", "[config]") {
   const std::string dir = ums::test::make_temp_dir("config_klt_sparse");
   std::vector<std::string> warnings;
   const ums::AppConfig c = ums::load_config(

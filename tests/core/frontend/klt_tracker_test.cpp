@@ -163,7 +163,7 @@ TEST_CASE("a 40 px motion needs the pyramid: 1 level fails, 4 levels succeed, a 
   CHECK(guided.rms_px < 0.05);
 }
 
-TEST_CASE("sparse coarse levels track as the whole window does; level 0 decides the precision") {
+TEST_CASE("sparse coarse levels track as the whole window does, and level 0 decides the precision") {
   // The coarse levels only carry the displacement into level 0's basin: iterating them on every
   // other pixel (a quarter of the samples) leaves the result to level 0's whole window. A sparse
   // level 0 as well keeps the tracks but loses some precision (a quarter of the samples).
