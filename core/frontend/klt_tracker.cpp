@@ -125,24 +125,43 @@ Weights quantized_weights(float ax, float ay) {
   return {kWeightOne - X - Y + w11, X - w11, Y - w11, w11};
 }
 
+// 8 integer sums of pixel x weight (below 2^15) out as floats: grey levels (kGrey), or the sums.
+#if defined(__ARM_NEON)
+template <bool kGrey>
+inline void store_sums(uint16x8_t s, float* out) {
+  float32x4_t lo = vcvtq_f32_u32(vmovl_u16(vget_low_u16(s))), hi = vcvtq_f32_u32(vmovl_u16(vget_high_u16(s)));
+  if constexpr (kGrey) {
+    lo = vmulq_n_f32(lo, 1.0f / static_cast<float>(kWeightOne));
+    hi = vmulq_n_f32(hi, 1.0f / static_cast<float>(kWeightOne));
+  }
+  vst1q_f32(out, lo);
+  vst1q_f32(out + 4, hi);
+}
+#elif defined(__SSE2__)
+template <bool kGrey>
+inline void store_sums(__m128i s, float* out) {
+  const __m128i zero = _mm_setzero_si128();
+  __m128 lo = _mm_cvtepi32_ps(_mm_unpacklo_epi16(s, zero)), hi = _mm_cvtepi32_ps(_mm_unpackhi_epi16(s, zero));
+  if constexpr (kGrey) {
+    lo = _mm_mul_ps(lo, _mm_set1_ps(1.0f / static_cast<float>(kWeightOne)));
+    hi = _mm_mul_ps(hi, _mm_set1_ps(1.0f / static_cast<float>(kWeightOne)));
+  }
+  _mm_storeu_ps(out, lo);
+  _mm_storeu_ps(out + 4, hi);
+}
+#endif
+
 // 8 samples from two source rows (each read at i .. i + 8, 9 pixels) as floats: grey levels, or
 // (kGrey false) 128 times them, the integer sums themselves. The tracker works on the latter: a
 // power-of-two scale changes no rounding, so only its two thresholds are scaled to match.
 template <bool kGrey>
 inline void sample_chunk(const std::uint8_t* r0, const std::uint8_t* r1, const Weights& w, float* out) {
-  constexpr float kInv = kGrey ? 1.0f / static_cast<float>(kWeightOne) : 1.0f;
 #if defined(__ARM_NEON)
   uint16x8_t s = vmull_u8(vld1_u8(r0), vdup_n_u8(static_cast<std::uint8_t>(w.w00)));
   s = vmlal_u8(s, vld1_u8(r0 + 1), vdup_n_u8(static_cast<std::uint8_t>(w.w01)));
   s = vmlal_u8(s, vld1_u8(r1), vdup_n_u8(static_cast<std::uint8_t>(w.w10)));
   s = vmlal_u8(s, vld1_u8(r1 + 1), vdup_n_u8(static_cast<std::uint8_t>(w.w11)));
-  float32x4_t lo = vcvtq_f32_u32(vmovl_u16(vget_low_u16(s))), hi = vcvtq_f32_u32(vmovl_u16(vget_high_u16(s)));
-  if constexpr (kGrey) {
-    lo = vmulq_n_f32(lo, kInv);
-    hi = vmulq_n_f32(hi, kInv);
-  }
-  vst1q_f32(out, lo);
-  vst1q_f32(out + 4, hi);
+  store_sums<kGrey>(s, out);
 #elif defined(__SSE2__)
   const __m128i zero = _mm_setzero_si128();
   auto px = [zero](const std::uint8_t* p) {
@@ -153,14 +172,9 @@ inline void sample_chunk(const std::uint8_t* r0, const std::uint8_t* r1, const W
   s = _mm_add_epi16(s, _mm_mullo_epi16(px(r0 + 1), _mm_set1_epi16(static_cast<short>(w.w01))));
   s = _mm_add_epi16(s, _mm_mullo_epi16(px(r1), _mm_set1_epi16(static_cast<short>(w.w10))));
   s = _mm_add_epi16(s, _mm_mullo_epi16(px(r1 + 1), _mm_set1_epi16(static_cast<short>(w.w11))));
-  __m128 lo = _mm_cvtepi32_ps(_mm_unpacklo_epi16(s, zero)), hi = _mm_cvtepi32_ps(_mm_unpackhi_epi16(s, zero));
-  if constexpr (kGrey) {
-    lo = _mm_mul_ps(lo, _mm_set1_ps(kInv));
-    hi = _mm_mul_ps(hi, _mm_set1_ps(kInv));
-  }
-  _mm_storeu_ps(out, lo);
-  _mm_storeu_ps(out + 4, hi);
+  store_sums<kGrey>(s, out);
 #else
+  constexpr float kInv = kGrey ? 1.0f / static_cast<float>(kWeightOne) : 1.0f;
   for (int i = 0; i < kChunk; ++i) {
     const int v = w.w00 * r0[i] + w.w01 * r0[i + 1] + w.w10 * r1[i] + w.w11 * r1[i + 1];
     out[i] = static_cast<float>(v) * kInv;
@@ -223,20 +237,13 @@ void sample_fixed(const ImageView& image, float x, float y, int n, float* out) {
 // i .. i + 16): the same integer formula as sample_chunk, on the even and odd pixels.
 template <bool kGrey>
 inline void sample_chunk_step2(const std::uint8_t* r0, const std::uint8_t* r1, const Weights& w, float* out) {
-  constexpr float kInv = kGrey ? 1.0f / static_cast<float>(kWeightOne) : 1.0f;
 #if defined(__ARM_NEON)
   const uint8x8x2_t a = vld2_u8(r0), b = vld2_u8(r1);  // val[0]: pixels 2i, val[1]: 2i + 1
   uint16x8_t s = vmull_u8(a.val[0], vdup_n_u8(static_cast<std::uint8_t>(w.w00)));
   s = vmlal_u8(s, a.val[1], vdup_n_u8(static_cast<std::uint8_t>(w.w01)));
   s = vmlal_u8(s, b.val[0], vdup_n_u8(static_cast<std::uint8_t>(w.w10)));
   s = vmlal_u8(s, b.val[1], vdup_n_u8(static_cast<std::uint8_t>(w.w11)));
-  float32x4_t lo = vcvtq_f32_u32(vmovl_u16(vget_low_u16(s))), hi = vcvtq_f32_u32(vmovl_u16(vget_high_u16(s)));
-  if constexpr (kGrey) {
-    lo = vmulq_n_f32(lo, kInv);
-    hi = vmulq_n_f32(hi, kInv);
-  }
-  vst1q_f32(out, lo);
-  vst1q_f32(out + 4, hi);
+  store_sums<kGrey>(s, out);
 #elif defined(__SSE2__)
   const __m128i low_bytes = _mm_set1_epi16(0x00FF);
   const __m128i a = _mm_loadu_si128(reinterpret_cast<const __m128i*>(r0));
@@ -246,15 +253,9 @@ inline void sample_chunk_step2(const std::uint8_t* r0, const std::uint8_t* r1, c
   s = _mm_add_epi16(s, _mm_mullo_epi16(_mm_srli_epi16(a, 8), _mm_set1_epi16(static_cast<short>(w.w01))));
   s = _mm_add_epi16(s, _mm_mullo_epi16(_mm_and_si128(b, low_bytes), _mm_set1_epi16(static_cast<short>(w.w10))));
   s = _mm_add_epi16(s, _mm_mullo_epi16(_mm_srli_epi16(b, 8), _mm_set1_epi16(static_cast<short>(w.w11))));
-  const __m128i zero = _mm_setzero_si128();
-  __m128 lo = _mm_cvtepi32_ps(_mm_unpacklo_epi16(s, zero)), hi = _mm_cvtepi32_ps(_mm_unpackhi_epi16(s, zero));
-  if constexpr (kGrey) {
-    lo = _mm_mul_ps(lo, _mm_set1_ps(kInv));
-    hi = _mm_mul_ps(hi, _mm_set1_ps(kInv));
-  }
-  _mm_storeu_ps(out, lo);
-  _mm_storeu_ps(out + 4, hi);
+  store_sums<kGrey>(s, out);
 #else
+  constexpr float kInv = kGrey ? 1.0f / static_cast<float>(kWeightOne) : 1.0f;
   for (int i = 0; i < kChunk; ++i) {
     const int v = w.w00 * r0[2 * i] + w.w01 * r0[2 * i + 1] + w.w10 * r1[2 * i] + w.w11 * r1[2 * i + 1];
     out[i] = static_cast<float>(v) * kInv;
