@@ -187,7 +187,8 @@ constexpr int kMaxSrcRow = (KltOptions::kMaxWindowPx + 2 + kChunk - 1) / kChunk 
 constexpr int kMaxSrcRows = KltOptions::kMaxWindowPx + 3;
 // The sparse window: every other pixel of the window, window_px / 2 + 1 samples a side.
 constexpr int kMaxSparseSide = KltOptions::kMaxWindowPx / 2 + 1;
-constexpr int kMaxSparseSrcRow = 2 * ((kMaxSparseSide + kChunk - 1) / kChunk * kChunk);
+constexpr int kMaxSparseCols = (kMaxSparseSide + kChunk - 1) / kChunk * kChunk;  // samples, whole chunks
+constexpr int kMaxSparseSrcRow = 2 * kMaxSparseCols;                                 // bytes a row reads
 static_assert(2 * kMaxSparseSide <= kMaxSrcRows, "the sparse sampler reads two source rows per sample row");
 
 // Source pixels x0 .. x0 + src - 1 of row r (width w), the ones outside the row repeating its
@@ -233,8 +234,8 @@ void sample_fixed(const ImageView& image, float x, float y, int n, float* out) {
   }
 }
 
-// 8 samples two pixels apart (each from pixels 2i and 2i + 1 of the two source rows, read at
-// i .. i + 16): the same integer formula as sample_chunk, on the even and odd pixels.
+// 8 samples two pixels apart, each from pixels 2i and 2i + 1 of the two source rows (16 bytes
+// read from each): the same integer formula as sample_chunk, on the even and odd pixels.
 template <bool kGrey>
 inline void sample_chunk_step2(const std::uint8_t* r0, const std::uint8_t* r1, const Weights& w, float* out) {
 #if defined(__ARM_NEON)
@@ -263,10 +264,10 @@ inline void sample_chunk_step2(const std::uint8_t* r0, const std::uint8_t* r1, c
 #endif
 }
 
-// sample_sparse_bilinear's contract (kGrey false: 128 times the grey levels): n x n samples two
-// pixels apart from (x, y), each the value sample_fixed gives at its position. In place when the
-// source block (whole chunks of 16 pixels) lies inside the image, else from copied rows with the
-// border pixels repeated.
+// sample_sparse_bilinear's contract (kGrey false: 128 times the grey levels): the samples of
+// sample_fixed's (2n - 1)-wide patch at (x, y) on its even rows and columns (the same weights). In
+// place when the source block (whole chunks of 16 pixels) lies inside the image, else from copied
+// rows with the border pixels repeated.
 template <bool kGrey>
 void sample_fixed_step2(const ImageView& image, float x, float y, int n, float* out) {
   const float fx0 = std::floor(x), fy0 = std::floor(y);
@@ -282,9 +283,10 @@ void sample_fixed_step2(const ImageView& image, float x, float y, int n, float* 
     // The common case (window_px 15: one chunk per row), away from the image edges: the source
     // rows in place, walked by stride.
     const long stride = image.stride;
-    const std::uint8_t* r = image.row(y0) + x0;
-    for (int j = 0; j < n; ++j, r += 2 * stride)
+    for (int j = 0; j < n; ++j) {
+      const std::uint8_t* r = image.row(y0 + 2 * j) + x0;
       for (int i = 0; i < n; i += kChunk) sample_chunk_step2<kGrey>(r + 2 * i, r + stride + 2 * i, w, out + j * n + i);
+    }
     return;
   }
   // Sample row j reads source rows y0 + 2j and y0 + 2j + 1.
@@ -299,7 +301,7 @@ void sample_fixed_step2(const ImageView& image, float x, float y, int n, float* 
       }
     }
   }
-  alignas(16) float scratch[kMaxSparseSrcRow];
+  alignas(16) float scratch[kMaxSparseCols];
   for (int j = 0; j < n; ++j) {
     float* o = j * n + cols <= n * n ? out + j * n : scratch;
     for (int i = 0; i < cols; i += kChunk)

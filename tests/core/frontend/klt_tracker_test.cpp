@@ -8,6 +8,7 @@
 #include <catch2/catch.hpp>
 
 #include "core/frontend/corner_detector.hpp"
+#include "core/frontend/frontend.hpp"
 #include "core/frontend/image_pyramid.hpp"
 #include "tests/core/frontend/synthetic_images.hpp"
 
@@ -50,7 +51,7 @@ struct Scene {
 KltResult track_transformed(double angle_rad, Eigen::Vector2d shift, int levels, bool use_truth_guess = false,
                             int window_px = ums::KltOptions{}.window_px,
                             int sparse_from_level = ums::KltOptions{}.sparse_from_level,
-                            int confirm_sparse_from_level = ums::KltOptions{}.sparse_from_level) {
+                            int confirm_sparse_from_level = ums::FrontendOptions{}.confirm_sparse_from_level) {
   const Scene sc(angle_rad, shift);
   const int w = Scene::kW, h = Scene::kH, n = sc.n;
   const Eigen::Vector2d pivot = sc.pivot;
@@ -87,7 +88,7 @@ KltResult track_transformed(double angle_rad, Eigen::Vector2d shift, int levels,
 // (a wrong match), then the front end's confirmation: tracked back on `levels_back` levels from
 // the forward track's origin, kept within 0.5 px. Returns how many of the forward tracks it kept.
 int confirmed_tracks(int levels_back, Eigen::Vector2f error, int* forward,
-                     int confirm_sparse_from_level = ums::KltOptions{}.sparse_from_level) {
+                     int confirm_sparse_from_level = ums::FrontendOptions{}.confirm_sparse_from_level) {
   const Scene sc(1.0 * M_PI / 180.0, Eigen::Vector2d(7.3, -4.6));
   const int n = sc.n;
   const Eigen::Vector2f* pts = sc.pts;
@@ -170,7 +171,7 @@ TEST_CASE("sparse coarse levels track as the whole window does, and level 0 deci
   const Eigen::Vector2d shift(7.3, -4.6);
   const double angle = 1.0 * M_PI / 180.0;
   const int kNone = ums::KltOptions{}.sparse_from_level;
-  const KltResult dense = track_transformed(angle, shift, 4);
+  const KltResult dense = track_transformed(angle, shift, 4, false, 15, kNone, kNone);
   const KltResult coarse = track_transformed(angle, shift, 4, false, 15, 1, kNone);
   const KltResult all = track_transformed(angle, shift, 4, false, 15, 0, kNone);
   INFO("tracked / rms px: dense " << dense.tracked << " / " << dense.rms_px << ", sparse from level 1 " << coarse.tracked
