@@ -1,0 +1,65 @@
+#!/usr/bin/env python3
+"""scripts/ate_compare.py on a made-up weights.sh work folder: pairing, the figures, the errors."""
+import json
+import math
+import os
+import subprocess
+import sys
+import tempfile
+
+SCRIPT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "scripts", "ate_compare.py")
+
+
+def write_run(work, name, flight, ate_m):
+    os.makedirs(os.path.join(work, name, flight))
+    stats = {"accuracy": {"ate_rmse_m": ate_m}} if ate_m is not None else {"accuracy": {}}
+    with open(os.path.join(work, name, flight, "stats.json"), "w") as f:
+        json.dump(stats, f)
+
+
+def run(*args):
+    p = subprocess.run([sys.executable, SCRIPT, *args], capture_output=True, text=True)
+    return p.returncode, p.stdout, p.stderr
+
+
+def main():
+    failures = []
+
+    def check(ok, what):
+        if not ok:
+            failures.append(what)
+
+    with tempfile.TemporaryDirectory() as work:
+        write_run(work, "base_data_f1.0", "MH01", 0.002)
+        write_run(work, "base_data_f1.0", "V101", 0.004)
+        write_run(work, "new_data_f1.0", "MH01", 0.001)   # halved
+        write_run(work, "new_data_f1.0", "V101", 0.004)   # the same
+        write_run(work, "base_ph_f1.0", "MH01", 0.010)
+        write_run(work, "new_ph_f1.0", "MH01", 0.020)     # doubled
+        write_run(work, "base_ph_f1.0", "V102", 0.010)    # no partner: left out
+        write_run(work, "base_ph_f0.99", "MH01", 0.010)   # no new_ph_f0.99 run: left out
+        write_run(work, "base_ph_f1.01", "MH01", 0.010)
+        write_run(work, "new_ph_f1.01", "MH01", None)     # no ATE: warned, left out
+        code, out, err = run(work, "base", "new")
+        check(code == 0, "exit 0 with pairs, got %d (%s)" % (code, err))
+        rows = {line.split("|")[1].strip(): [c.strip() for c in line.split("|")[2:-1]]
+                for line in out.splitlines() if line.startswith("| data") or line.startswith("| ph")}
+        # data: log(0.5) and log(1): mean -34.7 %, se = |log 0.5| / 2 = 34.7 %.
+        half = 100 * math.log(0.5)
+        check(rows.get("data") == ["2", "3.000", "2.500", "%+.1f %% (%.1f)" % (half / 2, -half / 2), "0 / 1"],
+              "data row %s" % rows.get("data"))
+        # ph: one pair, doubled: +69.3 %, no spread from one run.
+        check(rows.get("ph") == ["1", "10.000", "20.000", "%+.1f %% (nan)" % (-half), "1 / 0"], "ph row %s" % rows.get("ph"))
+        check("has no ATE" in err, "missing ATE not reported: %r" % err)
+        code, out, err = run(work, "base", "other")
+        check(code == 1 and "pairs with one of other_*" in err, "no pairs: exit %d, %r" % (code, err))
+        code, _, err = run(work, "base")
+        check(code == 64 and "Usage" in err, "usage: exit %d" % code)
+    for f in failures:
+        print("FAILED:", f)
+    print("ate_compare_test: %d failure(s)" % len(failures))
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
