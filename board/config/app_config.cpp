@@ -255,18 +255,19 @@ AppConfig config_from_calibration(const RigCalibration& calibration) {
   return config;
 }
 
-AppConfig load_config(const std::string& path, const RigCalibration& defaults,
-                      std::vector<std::string>* warnings) {
-  const hal::YamlFile yaml(path);
-  AppConfig config = config_from_calibration(defaults);
-  config.source = path;
+namespace {
 
+void warn_unknown_keys(const hal::YamlFile& yaml, const std::string& path, std::vector<std::string>* warnings) {
+  if (warnings == nullptr) return;
   for (const std::string& key : yaml.keys()) {
     const bool known = is_numeric_key(key) || is_fixed_key(key) || contains(kIgnoredKeys, key) ||
                        contains(kOtherKeys, key);
-    if (!known && warnings != nullptr) warnings->push_back(path + ": unknown key '" + key + "' ignored");
+    if (!known) warnings->push_back(path + ": unknown key '" + key + "' ignored");
   }
+}
 
+// VINS-Fusion keys this program supports with one value only (e.g. two cameras).
+void check_fixed_keys(const hal::YamlFile& yaml) {
   for (const FixedKey& k : kFixedKeys) {
     if (!yaml.has(k.key)) continue;
     bool ok = false;
@@ -279,16 +280,23 @@ AppConfig load_config(const std::string& path, const RigCalibration& defaults,
                            k.meaning + ")");
     }
   }
+}
 
-  // Camera models first: camodocal files as VINS-Fusion references them, relative to this file.
+// Camera models first: camodocal files as VINS-Fusion references them, relative to the config.
+void read_camera_models(const hal::YamlFile& yaml, const std::string& path, AppConfig* config,
+                        std::vector<std::string>* warnings) {
   for (int side = 0; side < 2; ++side) {
     const std::string key = side == 0 ? "cam0_calib" : "cam1_calib";
     if (!yaml.has(key)) continue;
     std::string file = yaml.text(key);
     if (file.empty()) yaml.fail(key, "empty file name");
     if (file[0] != '/') file = folder_of(path) + "/" + file;
-    read_camodocal(file, &config.rig.cam[side], warnings);
+    read_camodocal(file, &config->rig.cam[side], warnings);
   }
+}
+
+// image_width / image_height for both cameras, which must agree with their camodocal files.
+void read_image_size(const hal::YamlFile& yaml, AppConfig* config) {
   const char* size_keys[2] = {"image_width", "image_height"};
   for (int i = 0; i < 2; ++i) {
     const std::string key = size_keys[i];
@@ -306,7 +314,7 @@ AppConfig load_config(const std::string& path, const RigCalibration& defaults,
                          (i == 0 ? "capacity::kMaxImageWidth" : "capacity::kMaxImageHeight") + ")");
     }
     for (int side = 0; side < 2; ++side) {
-      int& size = i == 0 ? config.rig.cam[side].width : config.rig.cam[side].height;
+      int& size = i == 0 ? config->rig.cam[side].width : config->rig.cam[side].height;
       const bool from_calib_file = yaml.has(side == 0 ? "cam0_calib" : "cam1_calib");
       if (from_calib_file && size != value) {
         yaml.fail(key, "value " + std::to_string(value) + " differs from cam" + std::to_string(side) +
@@ -315,17 +323,23 @@ AppConfig load_config(const std::string& path, const RigCalibration& defaults,
       size = value;
     }
   }
+}
+
+// body_T_cam0/1 and the flight controller's mount body_T_vehicle (a rotation, checked).
+void read_transforms(const hal::YamlFile& yaml, AppConfig* config) {
   for (int side = 0; side < 2; ++side) {
     const std::string key = side == 0 ? "body_T_cam0" : "body_T_cam1";
-    if (yaml.has(key)) config.rig.cam[side].T_b_c = yaml.transform(key);
+    if (yaml.has(key)) config->rig.cam[side].T_b_c = yaml.transform(key);
   }
   if (yaml.has("body_T_vehicle")) {
-    config.T_b_vehicle = yaml.transform("body_T_vehicle");
-    const Eigen::Matrix3d R = config.T_b_vehicle.linear();
+    config->T_b_vehicle = yaml.transform("body_T_vehicle");
+    const Eigen::Matrix3d R = config->T_b_vehicle.linear();
     if ((R.transpose() * R - Eigen::Matrix3d::Identity()).norm() > 1e-6 || R.determinant() < 0.0)
       yaml.fail("body_T_vehicle", "rotation part is not a rotation (orthonormal, det +1)");
   }
+}
 
+void read_numeric_keys(const hal::YamlFile& yaml, AppConfig* config) {
   for (const NumericKey& k : kNumericKeys) {
     if (!yaml.has(k.key)) continue;
     double v = 0.0;
@@ -336,8 +350,23 @@ AppConfig load_config(const std::string& path, const RigCalibration& defaults,
     } catch (const std::runtime_error&) {
     }
     if (!ok) yaml.fail(k.key, "value " + yaml.describe(k.key) + ", allowed " + range_text(k));
-    k.set(config, v);
+    k.set(*config, v);
   }
+}
+
+}  // namespace
+
+AppConfig load_config(const std::string& path, const RigCalibration& defaults,
+                      std::vector<std::string>* warnings) {
+  const hal::YamlFile yaml(path);
+  AppConfig config = config_from_calibration(defaults);
+  config.source = path;
+  warn_unknown_keys(yaml, path, warnings);
+  check_fixed_keys(yaml);
+  read_camera_models(yaml, path, &config, warnings);
+  read_image_size(yaml, &config);
+  read_transforms(yaml, &config);
+  read_numeric_keys(yaml, &config);
   try {
     config.validate();
   } catch (const std::invalid_argument& e) {
