@@ -196,6 +196,38 @@ void masked_max(const float* __restrict out, const std::uint8_t* __restrict m, i
   *lanes = mx;
 }
 
+// Bit k set: mask byte p[k] is 0 (free). Mask bytes are 0 or 1 (block_disk), so the product
+// gathers the four bytes' lowest bits into the top byte without carries.
+inline unsigned free_lanes4(const std::uint8_t* p) {
+  std::uint32_t four;
+  std::memcpy(&four, p, sizeof four);
+  if (four == 0x01010101u) return 0;
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
+  return ~((four * 0x01020408u) >> 24) & 0xFu;
+#else
+  return (p[0] == 0 ? 1u : 0u) | (p[1] == 0 ? 2u : 0u) | (p[2] == 0 ? 4u : 0u) | (p[3] == 0 ? 8u : 0u);
+#endif
+}
+
+// Bit k set: the response r0[k] (rm: the row above, rp: below) is at or above thresh and a 3x3
+// maximum, ties going to the first pixel in scan order: the scalar test of each pixel, lane by
+// lane (a NaN fails it in both).
+inline unsigned maxima4(const float* rm, const float* r0, const float* rp, float thresh) {
+  typedef int I4 __attribute__((vector_size(16)));
+  const F4 v = load_lanes(r0);
+  const I4 ok = (v >= thresh) & (v > load_lanes(rm - 1)) & (v > load_lanes(rm)) & (v > load_lanes(rm + 1)) &
+                (v > load_lanes(r0 - 1)) & (v >= load_lanes(r0 + 1)) & (v >= load_lanes(rp - 1)) &
+                (v >= load_lanes(rp)) & (v >= load_lanes(rp + 1));
+#if defined(__SSE2__)
+  return static_cast<unsigned>(_mm_movemask_ps(reinterpret_cast<__m128>(ok)));
+#elif defined(__ARM_NEON) && defined(__aarch64__)
+  const uint32x4_t weights = {1u, 2u, 4u, 8u};
+  return vaddvq_u32(vandq_u32(vreinterpretq_u32_s32(ok), weights));
+#else
+  return (ok[0] != 0 ? 1u : 0u) | (ok[1] != 0 ? 2u : 0u) | (ok[2] != 0 ? 4u : 0u) | (ok[3] != 0 ? 8u : 0u);
+#endif
+}
+
 // out = a | b | c, rows of column-group bits.
 void or3(const std::uint64_t* a, const std::uint64_t* b, const std::uint64_t* c, std::uint64_t* out) {
   for (int i = 0; i < CornerDetector::kGroupWords; ++i) out[i] = a[i] | b[i] | c[i];
@@ -310,11 +342,16 @@ float CornerDetector::response(int x, int y) const {
                   : std::numeric_limits<float>::quiet_NaN();
 }
 
-// The strongest kMaxCornerCandidates candidates stay, in a min-heap by score.
+// The strongest kMaxCornerCandidates candidates stay. Until the store is full they are only
+// appended: the selection orders them by a strict total order (RanksBelow), so their arrangement
+// does not matter, and a detection rarely finds that many. When it fills, it becomes the min-heap
+// by score that pushing each one in turn would have built (the same pushes, later), so the
+// candidates evicted after that are the ones the heap always evicted, ties included.
 void CornerDetector::offer(const Candidate& c) {
   if (heap_.size() < capacity::kMaxCornerCandidates) {
     heap_.push_back(c);  // within reserved capacity: no allocation
-    std::push_heap(heap_.begin(), heap_.end(), ScoresGreater{});
+    if (heap_.size() == capacity::kMaxCornerCandidates)
+      for (auto end = heap_.begin() + 2; end <= heap_.end(); ++end) std::push_heap(heap_.begin(), end, ScoresGreater{});
   } else if (c.score > heap_.front().score) {
     std::pop_heap(heap_.begin(), heap_.end(), ScoresGreater{});
     heap_.back() = c;
@@ -322,36 +359,49 @@ void CornerDetector::offer(const Candidate& c) {
   }
 }
 
+// Row y's candidates: free, at or above thresh and a 3x3 maximum, ties going to the first pixel
+// in scan order; they enter the heap in scan order. Most of the image is covered by the disks
+// around the features already tracked: only the column groups mark_needed_groups found a free
+// pixel in (scratch_) are visited, 4 pixels at once (maxima4) and the free ones among those passing.
+void CornerDetector::offer_row_maxima(int y, int b, float thresh) {
+  const int w = width_;
+  const float* rm = response_.data() + static_cast<std::size_t>(y - 1) * static_cast<std::size_t>(w);
+  const float* r0 = rm + w;
+  const float* rp = r0 + w;
+  const std::uint8_t* m = mask_.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(w);
+  const std::uint64_t* groups = scratch_.data() + static_cast<std::size_t>(y) * kGroupWords;
+  for (int wi = 0; wi < kGroupWords; ++wi) {
+    for (std::uint64_t bits = groups[wi]; bits != 0; bits &= bits - 1) {
+      const int g = wi * 64 + __builtin_ctzll(bits);
+      const int x1 = std::min(g * kGroupPx + kGroupPx, w - b);
+      int x = std::max(g * kGroupPx, b);
+      for (; x + 4 <= x1; x += 4) {  // reads up to r0[x + 4] <= r0[w - b + 3]: inside the row (b >= 3)
+        const unsigned free = free_lanes4(m + x);
+        if (free == 0) continue;
+        for (unsigned lanes = free & maxima4(rm + x, r0 + x, rp + x, thresh); lanes != 0; lanes &= lanes - 1) {
+          const int k = __builtin_ctz(lanes);
+          offer(Candidate{r0[x + k], x + k, y});
+        }
+      }
+      for (; x < x1; ++x) {
+        const float v = r0[x];
+        if (m[x] == 0 && v >= thresh && v > rm[x - 1] && v > rm[x] && v > rm[x + 1] && v > r0[x - 1] &&
+            v >= r0[x + 1] && v >= rp[x - 1] && v >= rp[x] && v >= rp[x + 1])
+          offer(Candidate{v, x, y});
+      }
+    }
+  }
+}
+
 int CornerDetector::detect(const ImageView& image, int max_new, const DetectorOptions& options, Eigen::Vector2f* out_px) {
   if (max_new <= 0 || !image.valid() || image.width != width_ || image.height != height_) return 0;
-  const int w = width_, h = height_;
+  const int h = height_;
   const int b = std::max(options.border_px, 3);
   mark_needed_groups(b);
   const float max_r = compute_response(image, b);
   const float thresh = std::max(options.min_response, options.quality_level * max_r);
   heap_.clear();
-  for (int y = b; y < h - b; ++y) {
-    const float* rm = response_.data() + static_cast<std::size_t>(y - 1) * static_cast<std::size_t>(w);
-    const float* r0 = rm + w;
-    const float* rp = r0 + w;
-    const std::uint8_t* m = mask_.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(w);
-    // Free, above the threshold and a 3x3 maximum, ties going to the first pixel in scan order;
-    // the candidates enter the heap in scan order. Most of the image is covered by the disks
-    // around the features already tracked: 8-pixel groups without a free pixel are skipped on
-    // the mask alone.
-    for (int x0 = b; x0 < w - b; x0 += 8) {
-      const int x1 = std::min(x0 + 8, w - b);
-      if (x1 - x0 == 8 && !has_zero_byte(m + x0)) continue;
-      for (int x = x0; x < x1; ++x) {
-        const float v = r0[x];
-        if (m[x] != 0 || !(v >= thresh && v > rm[x - 1] && v > rm[x] && v > rm[x + 1] && v > r0[x - 1] &&
-                           v >= r0[x + 1] && v >= rp[x - 1] && v >= rp[x] && v >= rp[x + 1])) {
-          continue;
-        }
-        offer(Candidate{v, x, y});
-      }
-    }
-  }
+  for (int y = b; y < h - b; ++y) offer_row_maxima(y, b, thresh);
   // Strongest first, equal scores in scan order. A detection places a few corners among thousands
   // of maxima, so the candidates leave a max-heap one at a time instead of being sorted.
   std::make_heap(heap_.begin(), heap_.end(), RanksBelow{});

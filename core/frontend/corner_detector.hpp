@@ -78,11 +78,13 @@ class CornerDetector {
       return l.y != r.y ? l.y > r.y : l.x > r.x;
     }
   };
-  void offer(const Candidate& c);  // into the bounded min-heap of the strongest
+  void offer(const Candidate& c);  // kept when among the strongest kMaxCornerCandidates
   void mark_needed_groups(int b);  // need_ from the mask
   // Fills response_ in the groups of need_ and returns its maximum over free pixels at least b
   // from the image edge.
   float compute_response(const ImageView& image, int b);
+  // Offers row y's free 3x3 maxima at or above thresh, at least b from the side edges.
+  void offer_row_maxima(int y, int b, float thresh);
 
   int width_ = 0, height_ = 0;
   std::vector<float> response_;
@@ -90,8 +92,9 @@ class CornerDetector {
                              // vertical 3-row sums (3 * width)
   std::vector<std::uint8_t> mask_;
   std::vector<std::uint64_t> need_;     // per row, kGroupWords of column-group bits: response computed
-  std::vector<std::uint64_t> scratch_;  // per row, the groups holding a free pixel
-  std::vector<Candidate> heap_;  // capacity::kMaxCornerCandidates, used as a bounded min-heap
+  std::vector<std::uint64_t> scratch_;  // per row, the groups holding a free pixel inside the border
+                                        // (mark_needed_groups; the candidate scan visits only them)
+  std::vector<Candidate> heap_;  // capacity::kMaxCornerCandidates: appended, a bounded min-heap once full (offer)
 };
 
 }  // namespace ums

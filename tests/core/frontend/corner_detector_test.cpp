@@ -274,3 +274,108 @@ TEST_CASE("corners of equal response are placed in scan order, strongest first")
     CHECK(twin_before);
   }
 }
+
+namespace {
+
+// detect()'s selection written plainly, for the detector det has just run (its responses) on
+// img with the mask that `mask` holds: every free pixel inside the border at or above the
+// threshold that is a 3x3 maximum (ties to the first in scan order), offered in scan order to a
+// min-heap by score holding the strongest kMaxCornerCandidates; then strongest first (equal
+// scores in scan order), each refined and placed when still free, blocking its disk in `mask`.
+std::vector<Eigen::Vector2f> reference_selection(const ums::CornerDetector& det, ums::CornerDetector& mask,
+                                                 const ums::ImageView& img, const ums::DetectorOptions& opt,
+                                                 int max_new, int* offered) {
+  struct C {
+    float score;
+    int x, y;
+  };
+  const int w = img.width, h = img.height, b = std::max(opt.border_px, 3);
+  auto free_at = [&](int x, int y) { return mask.is_free(Eigen::Vector2f(static_cast<float>(x), static_cast<float>(y))); };
+  float max_r = 0.0f;
+  for (int y = b; y < h - b; ++y)
+    for (int x = b; x < w - b; ++x)
+      if (free_at(x, y)) max_r = std::max(max_r, det.response(x, y));
+  const float thresh = std::max(opt.min_response, opt.quality_level * max_r);
+  std::vector<C> heap;
+  const auto greater = [](const C& l, const C& r) { return l.score > r.score; };
+  for (int y = b; y < h - b; ++y) {
+    for (int x = b; x < w - b; ++x) {
+      const float v = det.response(x, y);
+      if (!free_at(x, y) || !(v >= thresh)) continue;
+      bool is_max = true;
+      for (int j = -1; j <= 1; ++j)
+        for (int i = -1; i <= 1; ++i) {
+          if (i == 0 && j == 0) continue;
+          const float u = det.response(x + i, y + j);
+          const bool before = j < 0 || (j == 0 && i < 0);  // earlier in scan order: strictly greater
+          is_max = is_max && (before ? v > u : v >= u);
+        }
+      if (!is_max) continue;
+      ++*offered;
+      if (heap.size() < ums::capacity::kMaxCornerCandidates) {
+        heap.push_back(C{v, x, y});
+        std::push_heap(heap.begin(), heap.end(), greater);
+      } else if (v > heap.front().score) {
+        std::pop_heap(heap.begin(), heap.end(), greater);
+        heap.back() = C{v, x, y};
+        std::push_heap(heap.begin(), heap.end(), greater);
+      }
+    }
+  }
+  std::sort(heap.begin(), heap.end(), [](const C& l, const C& r) {
+    if (l.score != r.score) return l.score > r.score;
+    return l.y != r.y ? l.y < r.y : l.x < r.x;
+  });
+  std::vector<Eigen::Vector2f> out;
+  for (const C& c : heap) {
+    if (static_cast<int>(out.size()) >= max_new) break;
+    Eigen::Vector2f p(static_cast<float>(c.x), static_cast<float>(c.y));
+    if (!mask.is_free(p)) continue;
+    ums::CornerDetector::refine_subpixel(img, opt, &p);
+    if (!mask.is_free(p)) continue;
+    out.push_back(p);
+    mask.block_disk(p, opt.min_distance_px);
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("detection selects as a bounded heap of the strongest candidates would, beyond its capacity and with ties") {
+  // More 3x3 maxima than kMaxCornerCandidates: blobs, and on the left a faint 4-px checkerboard
+  // whose corners all have one response, the weakest in view: the store evicts among equal
+  // scores (a heap built otherwise than by pushing each candidate in turn fails here). Then a
+  // mask of disks, as tracked features leave it.
+  const int w = 752, h = 480;
+  const ums::test::BlobTexture tex(w, h, 300, 11u);
+  ums::test::GreyImage img = tex.render(w, h);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w / 2; ++x) img.at(x, y) = static_cast<std::uint8_t>(((x / 4 + y / 4) % 2 != 0) ? 130 : 100);
+  ums::DetectorOptions opt;
+  opt.min_distance_px = 3.0f;
+  constexpr int kMaxNew = 300;
+  for (const bool masked : {false, true}) {
+    ums::CornerDetector det(w, h), ref_mask(w, h);
+    det.clear_mask();
+    ref_mask.clear_mask();
+    if (masked) {
+      for (int y = 0; y < h; y += 40)
+        for (int x = (y / 40) % 2 * 20; x < w; x += 40) {
+          det.block_disk(Eigen::Vector2f(x, y), 12.0f);
+          ref_mask.block_disk(Eigen::Vector2f(x, y), 12.0f);
+        }
+    }
+    Eigen::Vector2f pts[kMaxNew];
+    const int n = det.detect(img.view(), kMaxNew, opt, pts);
+    int offered = 0;
+    const std::vector<Eigen::Vector2f> ref = reference_selection(det, ref_mask, img.view(), opt, kMaxNew, &offered);
+    INFO((masked ? "masked" : "unmasked") << ": " << n << " corners, reference " << ref.size() << ", " << offered
+                                          << " candidates");
+    CHECK(offered > static_cast<int>(ums::capacity::kMaxCornerCandidates));  // the store evicted
+    REQUIRE(n == static_cast<int>(ref.size()));
+    CHECK(n > 100);
+    int differ = 0;
+    for (int i = 0; i < n; ++i) differ += (pts[i] - ref[static_cast<std::size_t>(i)]).norm() > 0.0f ? 1 : 0;
+    CHECK(differ == 0);
+  }
+}
