@@ -52,7 +52,9 @@ bool Problem::evaluate_residual(const Residual& rb, bool jacobians, double* r, d
     for (int i = 0; i < rows; ++i) sq += r[i] * r[i];
   if (!std::isfinite(sq)) return false;
   // Non-finite Jacobians are caught once per linearization (NaN/Inf propagate into H, b, V).
-  if (rb.loss.type == LossType::kTrivial) {
+  // The trivial loss, and Huber's quadratic region where nearly every residual lies: rho(s) = s,
+  // rho' = 1, rho'' = 0, no correction (what RobustLoss::evaluate gives, without the call).
+  if (rb.loss.type == LossType::kTrivial || (rb.loss.type == LossType::kHuber && !(sq > rb.loss.scale * rb.loss.scale))) {
     *cost = 0.5 * sq;
     return true;
   }
