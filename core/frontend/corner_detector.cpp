@@ -125,8 +125,7 @@ inline F4 sqrt4(F4 v) {
 void sobel_products(const std::uint8_t* __restrict r0, const std::uint8_t* __restrict r1,
                     const std::uint8_t* __restrict r2, int x0, int x1, float* __restrict xx, float* __restrict xy,
                     float* __restrict yy) {
-  int x = x0;
-  for (; x + 8 <= x1; x += 8) {  // reads up to x + 8 <= width - 1
+  auto step8 = [&](int x) {  // reads up to x + 8 <= width - 1
     const S8 a0 = load8_u8(r0 + x - 1), a1 = load8_u8(r0 + x), a2 = load8_u8(r0 + x + 1);
     const S8 b0 = load8_u8(r1 + x - 1), b2 = load8_u8(r1 + x + 1);
     const S8 c0 = load8_u8(r2 + x - 1), c1 = load8_u8(r2 + x), c2 = load8_u8(r2 + x + 1);
@@ -139,6 +138,14 @@ void sobel_products(const std::uint8_t* __restrict r0, const std::uint8_t* __res
       store_lanes(xy + x + 4 * h, fx[h] * fy[h]);
       store_lanes(yy + x + 4 * h, fy[h] * fy[h]);
     }
+  };
+  int x = x0;
+  for (; x + 8 <= x1; x += 8) step8(x);
+  // The last pixels of a run of 8 or more: the 8 ending at x1 again (their lanes write the values
+  // already there), not the scalar loop.
+  if (x < x1 && x1 - x0 >= 8) {
+    step8(x1 - 8);
+    return;
   }
   for (; x < x1; ++x) {
     const int dx = (r0[x + 1] - r0[x - 1]) + 2 * (r1[x + 1] - r1[x - 1]) + (r2[x + 1] - r2[x - 1]);
@@ -153,8 +160,13 @@ void sobel_products(const std::uint8_t* __restrict r0, const std::uint8_t* __res
 // out[x] = a[x] + b[x] + c[x] for x in x0 .. x1-1.
 void sum3_rows(const float* __restrict a, const float* __restrict b, const float* __restrict c, float* __restrict out,
                int x0, int x1) {
+  auto step4 = [&](int x) { store_lanes(out + x, load_lanes(a + x) + load_lanes(b + x) + load_lanes(c + x)); };
   int x = x0;
-  for (; x + 4 <= x1; x += 4) store_lanes(out + x, load_lanes(a + x) + load_lanes(b + x) + load_lanes(c + x));
+  for (; x + 4 <= x1; x += 4) step4(x);
+  if (x < x1 && x1 - x0 >= 4) {  // the last 4 again, as in sobel_products
+    step4(x1 - 4);
+    return;
+  }
   for (; x < x1; ++x) out[x] = a[x] + b[x] + c[x];
 }
 
@@ -162,12 +174,17 @@ void sum3_rows(const float* __restrict a, const float* __restrict b, const float
 // Iyy), x in x0 .. x1-1 (x0 >= 1, x1 <= width - 1).
 void shi_tomasi_row(const float* __restrict va, const float* __restrict vb, const float* __restrict vc, float norm,
                     int x0, int x1, float* __restrict out) {
-  int x = x0;
-  for (; x + 4 <= x1; x += 4) {
+  auto step4 = [&](int x) {
     const F4 sa = (load_lanes(va + x - 1) + load_lanes(va + x) + load_lanes(va + x + 1)) * norm;
     const F4 sb = (load_lanes(vb + x - 1) + load_lanes(vb + x) + load_lanes(vb + x + 1)) * norm;
     const F4 sc = (load_lanes(vc + x - 1) + load_lanes(vc + x) + load_lanes(vc + x + 1)) * norm;
     store_lanes(out + x, 0.5f * ((sa + sc) - sqrt4((sa - sc) * (sa - sc) + 4.0f * sb * sb)));
+  };
+  int x = x0;
+  for (; x + 4 <= x1; x += 4) step4(x);
+  if (x < x1 && x1 - x0 >= 4) {  // the last 4 again, as in sobel_products
+    step4(x1 - 4);
+    return;
   }
   for (; x < x1; ++x) {
     const float sa = (va[x - 1] + va[x] + va[x + 1]) * norm;
@@ -177,21 +194,29 @@ void shi_tomasi_row(const float* __restrict va, const float* __restrict vb, cons
   }
 }
 
-// max(lanes, out[x] at pixels with m[x] == 0) over x in x0 .. x1-1: 4 pixels at once where all
-// four are free (a maximum is exact in any order).
+// max(lanes, out[x] at pixels with m[x] == 0) over x in x0 .. x1-1, 4 pixels at once (the
+// busy ones as 0, the neutral start: responses are >= 0); a run's last pixels are its last 4
+// again (a maximum is exact in any order and with repeats).
 void masked_max(const float* __restrict out, const std::uint8_t* __restrict m, int x0, int x1, F4* lanes) {
+  typedef int I4 __attribute__((vector_size(16)));
   F4 mx = *lanes;
-  for (int x = x0; x < x1;) {
-    std::uint32_t four = 1;
-    if (x + 4 <= x1) std::memcpy(&four, m + x, sizeof four);
-    if (four == 0) {
-      const F4 v = load_lanes(out + x);
-      mx = v > mx ? v : mx;
-      x += 4;
-    } else {
-      mx[0] = std::max(mx[0], m[x] == 0 ? out[x] : 0.0f);
-      ++x;
+  auto step4 = [&](int x) {
+    std::uint32_t four;
+    std::memcpy(&four, m + x, sizeof four);
+    if (four == 0x01010101u) return;  // mask bytes are 0 or 1 (block_disk)
+    F4 v = load_lanes(out + x);
+    if (four != 0) {
+      const I4 busy = {m[x], m[x + 1], m[x + 2], m[x + 3]};
+      v = busy == 0 ? v : F4{0.0f, 0.0f, 0.0f, 0.0f};
     }
+    mx = v > mx ? v : mx;
+  };
+  int x = x0;
+  for (; x + 4 <= x1; x += 4) step4(x);
+  if (x < x1 && x1 - x0 >= 4) {
+    step4(x1 - 4);
+  } else {
+    for (; x < x1; ++x) mx[0] = std::max(mx[0], m[x] == 0 ? out[x] : 0.0f);
   }
   *lanes = mx;
 }
