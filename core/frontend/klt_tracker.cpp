@@ -212,10 +212,28 @@ void sample_fixed(const ImageView& image, float x, float y, int n, float* out) {
   const Weights w = quantized_weights(x - fx0, y - fy0);
   const int cols = (n + kChunk - 1) / kChunk * kChunk;
   const int src = cols + 1;
+  alignas(16) float scratch[kMaxSrcRow];
+  const bool inside = x0 >= 0 && x0 + src <= image.width;
+  if (inside && y0 >= 0 && y0 + n < image.height) {
+    // The common case, away from every edge: the source rows in place, walked by stride. Rows
+    // in whole chunks as below; only the last rows, whose chunks would run past the patch, go
+    // through the scratch row.
+    const long stride = image.stride;
+    const std::uint8_t* r = image.row(y0) + x0;
+    const int direct = std::min(n, n * n >= cols ? (n * n - cols) / n + 1 : 0);
+    int j = 0;
+    for (; j < direct; ++j, r += stride)
+      for (int i = 0; i < cols; i += kChunk) sample_chunk<kGrey>(r + i, r + stride + i, w, out + j * n + i);
+    for (; j < n; ++j, r += stride) {
+      for (int i = 0; i < cols; i += kChunk) sample_chunk<kGrey>(r + i, r + stride + i, w, scratch + i);
+      std::memcpy(out + j * n, scratch, sizeof(float) * static_cast<std::size_t>(n));
+    }
+    return;
+  }
   const std::uint8_t* rows[kMaxSrcRows];
   std::uint8_t copy[kMaxSrcRows][kMaxSrcRow];
   const int ymax = image.height - 1;
-  if (x0 >= 0 && x0 + src <= image.width) {
+  if (inside) {
     // Rows above or below the image repeat the edge row: pointing at it is the copy.
     for (int j = 0; j <= n; ++j) rows[j] = image.row(std::clamp(y0 + j, 0, ymax)) + x0;
   } else {
@@ -226,7 +244,6 @@ void sample_fixed(const ImageView& image, float x, float y, int n, float* out) {
   }
   // Each row in whole chunks: the samples past n land on the next row's start, which that row
   // overwrites; a row whose chunks would run past the patch goes through a scratch row.
-  alignas(16) float scratch[kMaxSrcRow];
   for (int j = 0; j < n; ++j) {
     float* o = j * n + cols <= n * n ? out + j * n : scratch;
     for (int i = 0; i < cols; i += kChunk) sample_chunk<kGrey>(rows[j] + i, rows[j + 1] + i, w, o + i);
