@@ -296,11 +296,15 @@ TEST_CASE("bilinear patch sampling equals the fixed-point formula bit for bit, i
                                {-2.3f, 5.5f},  {70.2f, 40.6f},   {10.0f, -1.5f},  {46.5f, 25.5f}};
   for (int n : sizes) {
     // In place, the kernel reads whole chunks of 8 and one pixel more: the origins where that
-    // read ends exactly at the right edge (still in place) and one pixel further (copied).
+    // read ends exactly at the right edge (still in place) and one pixel further (copied); the
+    // rows' n + 1 ending on the last row (walked by stride) and one row further (clamped).
     const int src = (n + 7) / 8 * 8 + 1;
     const float edge_x = static_cast<float>(w - src);
-    const float edge_origins[3][2] = {{edge_x + 0.375f, 2.5f}, {edge_x + 1.375f, 2.5f}, {1.5f, static_cast<float>(h - n - 1) + 0.25f}};
-    for (int k = 0; k < 12; ++k) {
+    const float edge_origins[4][2] = {{edge_x + 0.375f, 2.5f},
+                                      {edge_x + 1.375f, 2.5f},
+                                      {1.5f, static_cast<float>(h - n - 1) + 0.25f},
+                                      {1.5f, static_cast<float>(h - n) + 0.25f}};
+    for (int k = 0; k < 13; ++k) {
       const float* o = k < 9 ? origins[k] : edge_origins[k - 9];
       ums::sample_patch_bilinear(v, o[0], o[1], n, out);
       for (int j = 0; j < n; ++j) {
@@ -312,7 +316,7 @@ TEST_CASE("bilinear patch sampling equals the fixed-point formula bit for bit, i
     }
   }
   INFO(samples << " samples");
-  CHECK(samples == 12 * (1 + 16 + 25 + 36 + 49 + 81 + 225 + 289 + 1089));
+  CHECK(samples == 13 * (1 + 16 + 25 + 36 + 49 + 81 + 225 + 289 + 1089));
   CHECK(mismatches == 0);
   // Beyond the stack rows it was sized for: refused, not overrun.
   CHECK_THROWS_AS(ums::sample_patch_bilinear(v, 3.0f, 3.0f, ums::KltOptions::kMaxWindowPx + 3, out), std::invalid_argument);
