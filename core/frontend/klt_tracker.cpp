@@ -455,15 +455,29 @@ struct WindowGrid {
 // The sparse grid's template from the dense one t (window n): its samples and gradients at the
 // even rows and columns, and their sums. False when that sparse template is untextured (the
 // level then iterates on the dense one).
+// dst[i] = src[2 i] for i < count, 4 at a time: reads src up to src[2 c - 1] and writes dst up
+// to dst[c - 1], c = count rounded up to 4. A template row's last group then reads up to 2 floats
+// past the template (nn + kLanes are stored) and writes into the next sparse row, which comes
+// after it, or the sparse arrays' spare lanes.
+inline void even_samples(const float* src, float* dst, int count) {
+  for (int i = 0; i < count; i += kLanes, src += 2 * kLanes, dst += kLanes) {
+#if defined(__SSE2__)
+    _mm_storeu_ps(dst, _mm_shuffle_ps(_mm_loadu_ps(src), _mm_loadu_ps(src + 4), _MM_SHUFFLE(2, 0, 2, 0)));
+#elif defined(__ARM_NEON)
+    vst1q_f32(dst, vld2q_f32(src).val[0]);
+#else
+    for (int k = 0; k < kLanes; ++k) dst[k] = src[2 * k];
+#endif
+  }
+}
+
 bool sparse_template(const TemplateRef& t, int n, const KltOptions& options, KltWorkspace* ws, TemplateRef* s) {
   const int side = n / 2 + 1;
   for (int j = 0; j < side; ++j) {
-    for (int i = 0; i < side; ++i) {
-      const int d = 2 * j * n + 2 * i, k = j * side + i;
-      ws->sparse_tmpl[k] = t.tmpl[d];
-      ws->sparse_gx[k] = t.gx[d];
-      ws->sparse_gy[k] = t.gy[d];
-    }
+    const int d = 2 * j * n, k = j * side;
+    even_samples(t.tmpl + d, ws->sparse_tmpl + k, side);
+    even_samples(t.gx + d, ws->sparse_gx + k, side);
+    even_samples(t.gy + d, ws->sparse_gy + k, side);
   }
   *s = TemplateRef{ws->sparse_tmpl, ws->sparse_gx, ws->sparse_gy, gradient_sums(ws->sparse_gx, ws->sparse_gy, side * side)};
   return textured(s->gs, side * side, options);
