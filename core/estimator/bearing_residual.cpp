@@ -28,8 +28,8 @@ void BearingResidual::set(Kind kind, bool same_camera, const Eigen::Vector3d& b_
   Eigen::Vector3d a = Eigen::Vector3d::UnitX();
   if (std::abs(b_target_.x()) > 0.6) a = Eigen::Vector3d::UnitY();
   const Eigen::Vector3d t1 = unit(a - b_target_ * b_target_.dot(a));
-  tangent_.col(0) = t1;
-  tangent_.col(1) = b_target_.cross(t1);
+  tangent_t_.row(0) = t1.transpose();
+  tangent_t_.row(1) = b_target_.cross(t1).transpose();
   count_blocks();
 }
 
@@ -74,7 +74,7 @@ void BearingResidual::write_td_jacobian(const Eigen::Matrix<double, 2, 3>& D, co
   if (!has_td_ || !jacobians[k].wanted()) return;
   // r = w B^T (u(P_ct) - b_t(td)): P_ct moves with the host bearing, b_t with its own velocity.
   solver::jacobian_map<2, 1>(jacobians[k]) =
-      D * (R_ct_ch * (-v_host_ * inv_rho)) + weight_ * (tangent_.transpose() * v_target_);
+      D * (R_ct_ch * (-v_host_ * inv_rho)) + weight_ * (tangent_t_ * v_target_);
 }
 
 namespace {
@@ -113,11 +113,92 @@ __attribute__((always_inline)) inline bool BearingResidual::project(const Eigen:
   // Written out: Eigen kept the 2-vector assignment out of line (a call per evaluation).
   const Eigen::Vector3d e = u - b_target;
   // Eigen folds the scalar into the product's left factor: the same here, for the same doubles.
-  residuals[0] = (weight_ * tangent_.col(0)).dot(e);
-  residuals[1] = (weight_ * tangent_.col(1)).dot(e);
+  residuals[0] = (weight_ * tangent_t_.row(0).transpose()).dot(e);
+  residuals[1] = (weight_ * tangent_t_.row(1).transpose()).dot(e);
   if (!std::isfinite(residuals[0]) || !std::isfinite(residuals[1])) return false;
   // B^T (I - u u^T) = B^T - (B^T u) u^T.
-  if (D != nullptr) *D = (weight_ * inv_n) * (tangent_.transpose() - (tangent_.transpose() * u) * u.transpose());
+  if (D != nullptr) *D = (weight_ * inv_n) * (tangent_t_ - (tangent_t_ * u) * u.transpose());
+  return true;
+}
+
+namespace {
+
+using solver::Pair;
+
+inline Pair splat(double v) { return Pair{v, v}; }
+
+// A 2 x 3 matrix as its columns, each a packet (row 0, row 1). Every entry below is computed as
+// Eigen's scalar expression it replaces computes it, so the doubles are the same; the two rows
+// share each instruction. Eigen (scalar, EIGEN_DONT_VECTORIZE) sums three products as
+// p_0 + (p_1 + p_2): its unrolled reduction halves the range.
+struct Cols23 {
+  Pair c[3];
+};
+
+// A R: column j is A_0 R(0, j) + (A_1 R(1, j) + A_2 R(2, j)).
+inline Cols23 times(const Cols23& A, const Eigen::Matrix3d& R) {
+  Cols23 out;
+  for (int j = 0; j < 3; ++j) out.c[j] = A.c[0] * splat(R(0, j)) + (A.c[1] * splat(R(1, j)) + A.c[2] * splat(R(2, j)));
+  return out;
+}
+
+// A R^T: column j is A_0 R(j, 0) + (A_1 R(j, 1) + A_2 R(j, 2)).
+inline Cols23 times_transpose(const Cols23& A, const Eigen::Matrix3d& R) {
+  Cols23 out;
+  for (int j = 0; j < 3; ++j) out.c[j] = A.c[0] * splat(R(j, 0)) + (A.c[1] * splat(R(j, 1)) + A.c[2] * splat(R(j, 2)));
+  return out;
+}
+
+// A v: A_0 v_0 + (A_1 v_1 + A_2 v_2).
+inline Pair times(const Cols23& A, const Eigen::Vector3d& v) {
+  return A.c[0] * splat(v.x()) + (A.c[1] * splat(v.y()) + A.c[2] * splat(v.z()));
+}
+
+// A hat(v), row by row a x v: (a_1 v_2 - a_2 v_1, a_2 v_0 - a_0 v_2, a_0 v_1 - a_1 v_0), Eigen's cross.
+inline Cols23 times_hat(const Cols23& A, const Eigen::Vector3d& v) {
+  return Cols23{{A.c[1] * splat(v.z()) - A.c[2] * splat(v.y()), A.c[2] * splat(v.x()) - A.c[0] * splat(v.z()),
+                 A.c[0] * splat(v.y()) - A.c[1] * splat(v.x())}};
+}
+
+inline Cols23 negated(const Cols23& A) { return Cols23{{-A.c[0], -A.c[1], -A.c[2]}}; }
+
+// A into columns c0 .. c0 + 2 of the 2-row row-major block at J (row stride s).
+inline void store_rows(const Cols23& A, const solver::JacobianView& J, int c0) {
+  double* r0 = J.data + c0;
+  double* r1 = r0 + J.row_stride;
+  for (int k = 0; k < 3; ++k) {
+    r0[k] = A.c[k][0];
+    r1[k] = A.c[k][1];
+  }
+}
+
+}  // namespace
+
+__attribute__((always_inline)) inline bool BearingResidual::project_packets(const Eigen::Vector3d& P_ct,
+                                                                            const Eigen::Vector3d& b_target,
+                                                                            double* residuals, Pair* D) const {
+  const double n = P_ct.norm();
+  if (!(n > 1e-9) || P_ct.dot(b_target_) <= 0.0) return false;
+  const double inv_n = 1.0 / n;
+  const Eigen::Vector3d u = P_ct * inv_n;
+  const Eigen::Vector3d e = u - b_target;
+  // B^T's columns and w B^T's (Eigen scales the tangent first, then takes the dot product).
+  Pair bt[3], wbt[3];
+  const Pair w = splat(weight_);
+  for (int k = 0; k < 3; ++k) {
+    bt[k] = solver::load_pair(tangent_t_.data() + 2 * k);
+    wbt[k] = w * bt[k];
+  }
+  const Pair r = wbt[0] * splat(e.x()) + (wbt[1] * splat(e.y()) + wbt[2] * splat(e.z()));
+  residuals[0] = r[0];
+  residuals[1] = r[1];
+  if (!std::isfinite(residuals[0]) || !std::isfinite(residuals[1])) return false;
+  if (D != nullptr) {
+    // (w / n) (B^T - (B^T u) u^T), column by column.
+    const Pair btu = bt[0] * splat(u.x()) + (bt[1] * splat(u.y()) + bt[2] * splat(u.z()));
+    const Pair s = splat(weight_ * inv_n);
+    for (int k = 0; k < 3; ++k) D[k] = s * (bt[k] - btu * splat(u[k]));
+  }
   return true;
 }
 
@@ -135,31 +216,36 @@ bool BearingResidual::evaluate_cached(const double* const* parameters, double* r
   // The solver's cost passes hand a view with nothing wanted: then no d r / d P_ct either.
   const bool any = jacobians != nullptr && (jacobians[0].wanted() || jacobians[1].wanted() ||
                                             jacobians[k_rho].wanted() || (has_td_ && jacobians[k_rho + 1].wanted()));
-  Eigen::Matrix<double, 2, 3> D;
-  if (!project(P_ct, b_t, residuals, any ? &D : nullptr)) return false;
+  Cols23 D;
+  if (!project_packets(P_ct, b_t, residuals, any ? D.c : nullptr)) return false;
   if (!any) return true;
-  // The same Jacobians as evaluate()'s, from the shared products (R_ct_bt = R_b_ct^T).
+  // The same Jacobians as evaluate()'s, from the shared products (R_ct_bt = R_b_ct^T), in packets.
   const bool want_h = jacobians[0].wanted(), want_t = jacobians[1].wanted();
   if (want_h || want_t) {
-    const Eigen::Matrix<double, 2, 3> DR = D * c.R_ct_w;
+    const Cols23 DR = times(D, c.R_ct_w);
     if (want_h && jacobians[0].point) {
-      solver::jacobian_map<2, 3>(jacobians[0]) = DR;
+      store_rows(DR, jacobians[0], 0);
     } else if (want_h) {
       const Eigen::Vector3d P_bh = c.R_b_ch * P_ch + c.p_b_ch;
-      auto J = solver::jacobian_map<2, 6>(jacobians[0]);
-      J.leftCols<3>() = DR;
-      J.rightCols<3>() = -times_hat(D * c.R_ct_bh, P_bh);
+      store_rows(DR, jacobians[0], 0);
+      store_rows(negated(times_hat(times(D, c.R_ct_bh), P_bh)), jacobians[0], 3);
     }
     if (want_t) {
       const Eigen::Vector3d P_bt = c.R_b_ct * P_ct + c.p_b_ct;
-      auto J = solver::jacobian_map<2, 6>(jacobians[1]);
-      J.leftCols<3>() = -DR;
-      J.rightCols<3>() = times_hat(D * c.R_b_ct.transpose(), P_bt);
+      store_rows(negated(DR), jacobians[1], 0);
+      store_rows(times_hat(times_transpose(D, c.R_b_ct), P_bt), jacobians[1], 3);
     }
   }
-  if (jacobians[k_rho].wanted())
-    solver::jacobian_map<2, 1>(jacobians[k_rho]) = D * (c.R_ct_ch * (-P_ch * inv_rho));
-  if (has_td_) write_td_jacobian(D, c.R_ct_ch, inv_rho, jacobians);
+  if (jacobians[k_rho].wanted() || has_td_) {
+    Eigen::Matrix<double, 2, 3> De;
+    for (int k = 0; k < 3; ++k) De.col(k) = Eigen::Vector2d(D.c[k][0], D.c[k][1]);
+    if (jacobians[k_rho].wanted()) {
+      const Pair j = times(D, Eigen::Vector3d(c.R_ct_ch * (-P_ch * inv_rho)));
+      jacobians[k_rho].data[0] = j[0];
+      jacobians[k_rho].data[jacobians[k_rho].row_stride] = j[1];
+    }
+    if (has_td_) write_td_jacobian(De, c.R_ct_ch, inv_rho, jacobians);
+  }
   return true;
 }
 

@@ -27,6 +27,7 @@
 #include <Eigen/Core>
 
 #include "core/estimator/relative_pose_cache.hpp"
+#include "solver/double_pair.hpp"
 #include "solver/residual.hpp"
 
 namespace ums {
@@ -75,6 +76,10 @@ class BearingResidual final : public solver::ResidualFunction {
                                   const solver::JacobianView* jacobians) const;
   bool project(const Eigen::Vector3d& P_ct, const Eigen::Vector3d& b_target, double* residuals,
                Eigen::Matrix<double, 2, 3>* D) const;
+  // project() with d r / d P_ct as its three columns, each a packet of two doubles (the same
+  // doubles): the cached evaluation's form.
+  bool project_packets(const Eigen::Vector3d& P_ct, const Eigen::Vector3d& b_target, double* residuals,
+                       solver::Pair* D) const;
   int rho_block() const { return num_blocks_ - 1 - static_cast<int>(has_td_); }
   void count_blocks();  // num_blocks_ from the kind, the cameras and the td block
   // The measured bearings moved by the offset at these parameters (b_host_, b_target_ without one).
@@ -89,7 +94,9 @@ class BearingResidual final : public solver::ResidualFunction {
   bool same_camera_ = true;
   Eigen::Vector3d b_host_ = Eigen::Vector3d::UnitZ();
   Eigen::Vector3d b_target_ = Eigen::Vector3d::UnitZ();
-  Eigen::Matrix<double, 3, 2> tangent_ = Eigen::Matrix<double, 3, 2>::Zero();
+  // B^T: the rows are the tangent plane's axes (stored by columns: each column of B^T, a pair of
+  // doubles, is one packet of the cached evaluation).
+  Eigen::Matrix<double, 2, 3> tangent_t_ = Eigen::Matrix<double, 2, 3>::Zero();
   double weight_ = 1.0;
   bool has_td_ = false;
   std::int8_t num_blocks_ = 4;  // evaluated per call: set by set() and set_time_offset()
