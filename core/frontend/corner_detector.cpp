@@ -304,8 +304,13 @@ void CornerDetector::mark_needed_groups(int b) {
       bits[g >> 6] |= static_cast<std::uint64_t>(any) << (g & 63);
     };
     if (b % kGroupPx != 0) mark_cut(b / kGroupPx);
-    for (int g = g_first; g < g_end; ++g) {
-      bits[g >> 6] |= static_cast<std::uint64_t>(has_zero_byte(m + g * kGroupPx)) << (g & 63);
+    // Each word's bits gathered in a register: a store through bits[] would be reloaded after
+    // every mask byte read (a byte pointer may alias it).
+    for (int g = g_first; g < g_end;) {
+      const int word_end = std::min(g_end, (g / 64 + 1) * 64);
+      std::uint64_t word = 0;
+      for (; g < word_end; ++g) word |= static_cast<std::uint64_t>(has_zero_byte(m + g * kGroupPx)) << (g & 63);
+      bits[(g - 1) >> 6] |= word;
     }
     if ((w - b) % kGroupPx != 0) mark_cut(g_end);
   }
