@@ -130,38 +130,44 @@ SolverStatus Problem::order_tail() {
 
 // A residual's landmark slot, fixed flag, cached block data and fast-path eligibility.
 void Problem::classify_residual(Residual& rb) {
-  rb.landmark = -1;
-  rb.fixed = true;
-  for (int j = 0; j < rb.num_blocks; ++j) {
-    const Block& b = blocks_[rb.blocks[j]];
-    if (b.constant) continue;
-    rb.fixed = false;
-    if (b.eliminate) rb.landmark = static_cast<std::int16_t>(b.index);
-  }
+  // In locals, written once at the end: rb's byte-sized fields alias everything, so storing them
+  // as the loop went made the compiler reload the blocks after every store.
+  int landmark = -1, lm_pos = -1, num_sorted = 0;
+  bool fixed = true;
   // Fast-path eligibility: 2 rows, variable reduced blocks all 6-dof, at most one 1-dof
   // eliminated block; blocks sorted by reduced row.
-  rb.fast2 = rb.rows == 2;
-  rb.num_sorted = 0;
-  rb.lm_pos = -1;
+  bool fast2 = rb.rows == 2;
+  std::int8_t sorted[capacity::kMaxBlocksPerResidual];
+  int sorted_row[capacity::kMaxBlocksPerResidual];
   for (int j = 0; j < rb.num_blocks; ++j) {
     const Block& b = blocks_[rb.blocks[j]];
     rb.params[j] = b.x;
-    rb.tangent[j] = b.tangent;
+    rb.tangent[j] = static_cast<std::int8_t>(b.tangent);
     rb.variable[j] = !b.constant;
     if (b.constant) continue;
+    fixed = false;
     if (b.eliminate) {
-      rb.lm_pos = static_cast<std::int8_t>(j);
-      rb.fast2 = rb.fast2 && b.tangent == 1;
+      landmark = b.index;
+      lm_pos = j;
+      fast2 = fast2 && b.tangent == 1;
       continue;
     }
-    rb.fast2 = rb.fast2 && b.tangent == 6;
-    int p = rb.num_sorted++;
-    while (p > 0 && blocks_[rb.blocks[rb.sorted[p - 1]]].index > b.index) {
-      rb.sorted[p] = rb.sorted[p - 1];
+    fast2 = fast2 && b.tangent == 6;
+    int p = num_sorted++;
+    while (p > 0 && sorted_row[p - 1] > b.index) {
+      sorted[p] = sorted[p - 1];
+      sorted_row[p] = sorted_row[p - 1];
       --p;
     }
-    rb.sorted[p] = static_cast<std::int8_t>(j);
+    sorted[p] = static_cast<std::int8_t>(j);
+    sorted_row[p] = b.index;
   }
+  rb.landmark = static_cast<std::int16_t>(landmark);
+  rb.fixed = fixed;
+  rb.fast2 = fast2;
+  rb.lm_pos = static_cast<std::int8_t>(lm_pos);
+  rb.num_sorted = static_cast<std::int8_t>(num_sorted);
+  for (int k = 0; k < num_sorted; ++k) rb.sorted[k] = sorted[k];
 }
 
 // Residuals grouped by landmark (CSR), the rest in a free list.
