@@ -38,6 +38,7 @@ struct GradientSums {
 GradientSums gradient_sums(const float* gx, const float* gy, int nn) {
   Lanes sxx{}, sxy{}, syy{}, sx{}, sy{};
   int k = 0;
+#pragma GCC unroll 4
   for (; k + kLanes <= nn; k += kLanes) {
     const Lanes a = load_lanes(gx + k), b = load_lanes(gy + k);
     sxx += a * a;
@@ -65,6 +66,9 @@ struct ErrorSums {
 ErrorSums error_sums(const float* t, const float* w, const float* gx, const float* gy, int nn) {
   Lanes sd{}, sdx{}, sdy{};
   int k = 0;
+  // Unrolled (the same sums in the same order): the loop's own add, compare and branch were a
+  // quarter of the instructions of a 4-lane step.
+#pragma GCC unroll 4
   for (; k + kLanes <= nn; k += kLanes) {
     const Lanes d = load_lanes(t + k) - load_lanes(w + k);
     sd += d;
