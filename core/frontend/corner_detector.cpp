@@ -140,6 +140,7 @@ void sobel_products(const std::uint8_t* __restrict r0, const std::uint8_t* __res
     }
   };
   int x = x0;
+#pragma GCC unroll 4
   for (; x + 8 <= x1; x += 8) step8(x);
   // The last pixels of a run of 8 or more: the 8 ending at x1 again (their lanes write the values
   // already there), not the scalar loop.
@@ -162,6 +163,7 @@ void sum3_rows(const float* __restrict a, const float* __restrict b, const float
                int x0, int x1) {
   auto step4 = [&](int x) { store_lanes(out + x, load_lanes(a + x) + load_lanes(b + x) + load_lanes(c + x)); };
   int x = x0;
+#pragma GCC unroll 4
   for (; x + 4 <= x1; x += 4) step4(x);
   if (x < x1 && x1 - x0 >= 4) {  // the last 4 again, as in sobel_products
     step4(x1 - 4);
@@ -181,6 +183,7 @@ void shi_tomasi_row(const float* __restrict va, const float* __restrict vb, cons
     store_lanes(out + x, 0.5f * ((sa + sc) - sqrt4((sa - sc) * (sa - sc) + 4.0f * sb * sb)));
   };
   int x = x0;
+#pragma GCC unroll 4
   for (; x + 4 <= x1; x += 4) step4(x);
   if (x < x1 && x1 - x0 >= 4) {  // the last 4 again, as in sobel_products
     step4(x1 - 4);
@@ -212,6 +215,7 @@ void masked_max(const float* __restrict out, const std::uint8_t* __restrict m, i
     mx = v > mx ? v : mx;
   };
   int x = x0;
+#pragma GCC unroll 4
   for (; x + 4 <= x1; x += 4) step4(x);
   if (x < x1 && x1 - x0 >= 4) {
     step4(x1 - 4);

@@ -89,6 +89,7 @@ ErrorSums error_sums(const float* t, const float* w, const float* gx, const floa
 float mean_abs_error(const float* t, const float* w, int nn) {
   Lanes sd{};
   int k = 0;
+#pragma GCC unroll 4
   for (; k + kLanes <= nn; k += kLanes) sd += load_lanes(t + k) - load_lanes(w + k);
   float sum_d = lane_sum(sd);
   for (int j = k; j < nn; ++j) sum_d += t[j] - w[j];
@@ -96,6 +97,7 @@ float mean_abs_error(const float* t, const float* w, int nn) {
   const float mean_d = sum_d * inv_area;
   const Lanes mean{mean_d, mean_d, mean_d, mean_d};
   Lanes sa{};
+#pragma GCC unroll 4
   for (k = 0; k + kLanes <= nn; k += kLanes) {
     const Lanes e = load_lanes(t + k) - load_lanes(w + k) - mean;
     sa += e < 0.0f ? -e : e;
