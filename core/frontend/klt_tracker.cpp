@@ -458,9 +458,6 @@ struct WindowGrid {
   int samples() const { return side * side; }
 };
 
-// The sparse grid's template from the dense one t (window n): its samples and gradients at the
-// even rows and columns, and their sums. False when that sparse template is untextured (the
-// level then iterates on the dense one).
 // dst[i] = src[2 i] for i < count, 4 at a time: reads src up to src[2 c - 1] and writes dst up
 // to dst[c - 1], c = count rounded up to 4. A template row's last group then reads up to 2 floats
 // past the template (nn + kLanes are stored) and writes into the next sparse row, which comes
@@ -477,6 +474,9 @@ inline void even_samples(const float* src, float* dst, int count) {
   }
 }
 
+// The sparse grid's template from the dense one t (window n): its samples and gradients at the
+// even rows and columns, and their sums. False when that sparse template is untextured (the
+// level then iterates on the dense one).
 bool sparse_template(const TemplateRef& t, int n, const KltOptions& options, KltWorkspace* ws, TemplateRef* s) {
   const int side = n / 2 + 1;
   for (int j = 0; j < side; ++j) {
@@ -487,6 +487,49 @@ bool sparse_template(const TemplateRef& t, int n, const KltOptions& options, Klt
   }
   *s = TemplateRef{ws->sparse_tmpl, ws->sparse_gx, ws->sparse_gy, gradient_sums(ws->sparse_gx, ws->sparse_gy, side * side)};
   return textured(s->gs, side * side, options);
+}
+
+// The sparse grid's template of p in I sampled directly, without the dense template a cache would
+// keep: the patch's odd rows whole (the samples and their horizontal neighbours) and its even rows
+// at the odd columns (the vertical neighbours), the same samples and the same gradient formula
+// as prepare_template then sparse_template, so the same floats. Only away from the image edges
+// (where sample_fixed reads in place): -1 there. Else 1 when that sparse template is textured, 0
+// when not. Unlike the dense path it does not test the dense window's texture: a window textured
+// on its sparse grid is used (a confirmation's template is used on that grid only).
+int sparse_template_direct(const ImageView& I, const Eigen::Vector2f& p, const KltOptions& options, KltWorkspace* ws,
+                           TemplateRef* s) {
+  const int n = options.window_px, half = n / 2, ne = n + 2, side = half + 1;
+  const float x = p.x() - static_cast<float>(half + 1), y = p.y() - static_cast<float>(half + 1);
+  const float fx0 = std::floor(x), fy0 = std::floor(y);
+  const int x0 = static_cast<int>(fx0), y0 = static_cast<int>(fy0);
+  const int cols = (ne + kChunk - 1) / kChunk * kChunk;
+  if (!(x0 >= 0 && x0 + cols + 1 <= I.width && y0 >= 0 && y0 + ne < I.height)) return -1;
+  const Weights w = quantized_weights(x - fx0, y - fy0);
+  const long stride = I.stride;
+  // Rows 0, 2, ..., 2 side of the patch at its odd columns 1, 3, ..., 2 side - 1.
+  alignas(16) float even[(kMaxSparseSide + 1) * kMaxSparseCols];
+  for (int j = 0; j <= side; ++j) {
+    const std::uint8_t* r = I.row(y0 + 2 * j) + x0 + 1;
+    for (int i = 0; i < side; i += kChunk)
+      sample_chunk_step2<false>(r + 2 * i, r + stride + 2 * i, w, even + j * kMaxSparseCols + i);
+  }
+  alignas(16) float odd[kMaxSrcRow];
+  for (int j = 0; j < side; ++j) {
+    const std::uint8_t* r = I.row(y0 + 2 * j + 1) + x0;
+    for (int i = 0; i < cols; i += kChunk) sample_chunk<false>(r + i, r + stride + i, w, odd + i);
+    const float* above = even + j * kMaxSparseCols;
+    const float* below = above + kMaxSparseCols;
+    float* t = ws->sparse_tmpl + j * side;
+    float* gx = ws->sparse_gx + j * side;
+    float* gy = ws->sparse_gy + j * side;
+    for (int i = 0; i < side; ++i) {
+      t[i] = odd[2 * i + 1];
+      gx[i] = 0.5f * (odd[2 * i + 2] - odd[2 * i]);
+      gy[i] = 0.5f * (below[i] - above[i]);
+    }
+  }
+  *s = TemplateRef{ws->sparse_tmpl, ws->sparse_gx, ws->sparse_gy, gradient_sums(ws->sparse_gx, ws->sparse_gy, side * side)};
+  return textured(s->gs, side * side, options) ? 1 : 0;
 }
 
 // The window at top-left (x, y) on grid g, in 128 x grey levels.
@@ -583,15 +626,24 @@ Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels,
   WindowGrid grid = dense_grid;
   for (int level = levels - 1; level >= 0; --level) {
     const Eigen::Vector2f p = p_prev * (1.0f / static_cast<float>(1 << level));
-    // A coarse level that cannot be used (blurred flat, or mostly outside a small image) is
-    // skipped: the finer levels still refine the carried displacement. Level 0 must succeed.
-    if (!level_template(prev, level, p_prev, p, options, cache, slot, &ws, &dense)) {
-      if (level == 0) return Status::kNotConverged;
-      g *= 2.0f;
-      continue;
+    // A sparse level whose template no cache keeps (the stereo confirmations': used once, on the
+    // sparse grid) samples that grid alone.
+    const bool want_sparse = level >= options.sparse_from_level;
+    const bool uncached = cache == nullptr || slot < 0 || slot >= cache->slots() || level >= cache->levels();
+    const int direct = want_sparse && uncached ? sparse_template_direct(prev.level(level), p, options, &ws, &t) : -1;
+    bool sparse = direct == 1;
+    if (!sparse) {
+      // A coarse level that cannot be used (blurred flat, or mostly outside a small image) is
+      // skipped: the finer levels still refine the carried displacement. Level 0 must succeed.
+      if (!level_template(prev, level, p_prev, p, options, cache, slot, &ws, &dense)) {
+        if (level == 0) return Status::kNotConverged;
+        g *= 2.0f;
+        continue;
+      }
+      // direct == 0: that sparse template is untextured, as the one cut from dense would be.
+      sparse = want_sparse && direct == -1 && sparse_template(dense, options.window_px, options, &ws, &t);
+      if (!sparse) t = dense;
     }
-    const bool sparse = level >= options.sparse_from_level && sparse_template(dense, options.window_px, options, &ws, &t);
-    if (!sparse) t = dense;
     grid = sparse ? sparse_grid : dense_grid;
     Eigen::Vector2f nu;
     if (!iterate_level(curr.level(level), p, g, options, level == 0 ? options.epsilon_px : options.coarse_epsilon_px, t,

@@ -384,3 +384,33 @@ TEST_CASE("fixed-point bilinear samples stay within half a grey level of exact b
   CHECK(max_err <= 0.5);
   CHECK(sum_err / samples <= 0.03);
 }
+
+TEST_CASE("a sparse level without a cached template samples its grid directly: the same tracks as from the dense template") {
+  // The stereo confirmations keep no template: their sparse levels sample the sparse grid alone
+  // (sparse_template_direct). With a cache slot every level goes through the dense template and
+  // its decimation. Both give the same samples and gradients, so on a textured scene the same
+  // tracks bit for bit, at every window size, near the image edges (the dense path there) too.
+  const Scene sc(1.0 * M_PI / 180.0, Eigen::Vector2d(7.3, -4.6));
+  REQUIRE(sc.n > 50);
+  int compared = 0, differ = 0, ok = 0;
+  for (const int window : {7, 9, 13, 15, 21}) {
+    ums::KltOptions opt;
+    opt.window_px = window;
+    opt.sparse_from_level = 0;
+    ums::KltTemplateCache cache(1, 4, ums::klt_template_floats(window));
+    // The corners, and points 1.3 px to 3.6 px from the image edges.
+    for (int i = 0; i < sc.n + 4; ++i) {
+      const Eigen::Vector2f from = i < sc.n ? sc.pts[i]
+                                            : Eigen::Vector2f(i % 2 == 0 ? 1.3f : Scene::kW - 3.6f, i % 4 < 2 ? 2.4f : Scene::kH - 1.8f);
+      Eigen::Vector2f direct = from, dense = from;
+      const ums::Status s_direct = ums::klt_track(sc.pa, sc.pb, 4, opt, from, &direct);
+      const ums::Status s_dense = ums::klt_track(sc.pa, sc.pb, 4, opt, from, &dense, &cache, 0);
+      ++compared;
+      ok += s_direct == ums::Status::kOk ? 1 : 0;
+      differ += (s_direct != s_dense || (s_direct == ums::Status::kOk && !(direct == dense))) ? 1 : 0;
+    }
+  }
+  INFO(compared << " tracks compared, " << ok << " tracked");
+  CHECK(ok > compared / 2);
+  CHECK(differ == 0);
+}
