@@ -9,7 +9,8 @@
 // the level-0 position, bit for bit) and, per level, a block of floats that klt_track fills the
 // first time a call needs that level and reads afterwards. A call whose key differs from the
 // slot's re-keys it and fills the levels again, so a wrong slot costs time, never a different
-// result, as long as the pyramids outlive the cache (a new pyramid at a dead one's address would
+// result (but on sparse levels, whose texture test differs with and without a cache:
+// klt_tracker.hpp), as long as the pyramids outlive the cache (a new pyramid at a dead one's address would
 // start its build count again; the front end owns both for its lifetime). Storage is allocated at
 // construction; nothing per frame.
 

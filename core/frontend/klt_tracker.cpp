@@ -422,7 +422,19 @@ struct TemplateRef {
 };
 
 // Floats of each array in a cache block, whole vectors with kLanes to spare (as the workspace).
-int template_stride(int n) { return (n * n + 2 * kLanes - 1) / kLanes * kLanes; }
+constexpr int template_stride(int n) { return (n * n + 2 * kLanes - 1) / kLanes * kLanes; }
+
+// even_samples' last read of a template (last sparse row, last group of 4) lies inside the
+// template_stride(n) floats of a cache block and the workspace's arrays, for every odd window.
+constexpr bool sparse_reads_fit() {
+  for (int n = 1; n <= KltOptions::kMaxWindowPx; n += 2) {
+    const int side = n / 2 + 1, groups = (side + kLanes - 1) / kLanes * kLanes;
+    const int last = 2 * (side - 1) * n + 2 * groups - 1;
+    if (last >= template_stride(n) || last >= KltOptions::kMaxWindowPx * KltOptions::kMaxWindowPx + kLanes) return false;
+  }
+  return true;
+}
+static_assert(sparse_reads_fit(), "even_samples reads past a template's storage");
 
 // A cache block: template, gradients, then the sums and the usable flag.
 constexpr int kSumFloats = 8;
@@ -459,9 +471,10 @@ struct WindowGrid {
 };
 
 // dst[i] = src[2 i] for i < count, 4 at a time: reads src up to src[2 c - 1] and writes dst up
-// to dst[c - 1], c = count rounded up to 4. A template row's last group then reads up to 2 floats
-// past the template (nn + kLanes are stored) and writes into the next sparse row, which comes
-// after it, or the sparse arrays' spare lanes.
+// to dst[c - 1], c = count rounded up to 4. A template's last sparse row then reads up to 6
+// floats past the template (n = 9, 17, 25; sparse_reads_fit below checks every window), into
+// lanes that are dropped, and writes into the next sparse row, which comes after it, or the
+// sparse arrays' spare lanes.
 inline void even_samples(const float* src, float* dst, int count) {
   for (int i = 0; i < count; i += kLanes, src += 2 * kLanes, dst += kLanes) {
 #if defined(__SSE2__)
@@ -503,7 +516,10 @@ int sparse_template_direct(const ImageView& I, const Eigen::Vector2f& p, const K
   const float fx0 = std::floor(x), fy0 = std::floor(y);
   const int x0 = static_cast<int>(fx0), y0 = static_cast<int>(fy0);
   const int cols = (ne + kChunk - 1) / kChunk * kChunk;
-  if (!(x0 >= 0 && x0 + cols + 1 <= I.width && y0 >= 0 && y0 + ne < I.height)) return -1;
+  // Bytes read past x0: the odd rows' chunks up to x0 + cols, the even rows' 16-byte chunks from
+  // x0 + 1 up to x0 + 2 ceil8(side) (past the patch for n = 5, 17, 19, 21: still inside the image).
+  const int last_byte = std::max(cols, 2 * ((side + kChunk - 1) / kChunk * kChunk));
+  if (!(x0 >= 0 && x0 + last_byte < I.width && y0 >= 0 && y0 + ne < I.height)) return -1;
   const Weights w = quantized_weights(x - fx0, y - fy0);
   const long stride = I.stride;
   // Rows 0, 2, ..., 2 side of the patch at its odd columns 1, 3, ..., 2 side - 1.

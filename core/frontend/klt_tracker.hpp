@@ -29,9 +29,11 @@ struct KltOptions {
   float min_eigen = 1.0f;         // (grey/px)^2, min eigenvalue of the mean structure tensor
   float max_mean_abs_error = 25.0f;  // grey levels, mean |I - J - offset| over the window after tracking
   // Levels from this one up iterate on every other pixel of the window in both directions
-  // (window_px / 2 + 1 samples a side, a quarter of the work per iteration; the template and its
-  // texture test stay whole-window, so a template cache serves both). A level whose sparse
-  // template is untextured stays dense. capacity::kMaxPyramidLevels (default): none.
+  // (window_px / 2 + 1 samples a side, a quarter of the work per iteration). A level whose
+  // template a cache keeps samples the whole template (the cache serves both), tests its texture
+  // and cuts the sparse one from it; a level without one samples and tests the sparse grid alone
+  // (away from the image edges). A level whose sparse template is untextured stays dense.
+  // capacity::kMaxPyramidLevels (default): none.
   int sparse_from_level = capacity::kMaxPyramidLevels;
 
   static constexpr int kMaxWindowPx = 31;  // px, bound of the stack patches
@@ -46,7 +48,10 @@ struct KltOptions {
 // is too large (then *p_curr is unspecified).
 // With a cache (built with klt_template_floats(options.window_px) floats per level), the
 // templates of p_prev in prev come from its slot `slot` when it holds them and go there when it
-// does not: the result is the same bits either way.
+// does not: the result is the same bits either way. Only sparse levels (sparse_from_level) differ
+// between a cached and an uncached template: the cached one's texture test is the whole window's,
+// the uncached one's the sparse grid's, so a window textured on one and not the other is tracked
+// by one call and refused by the other (same samples, same result otherwise).
 Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels, const KltOptions& options,
                  const Eigen::Vector2f& p_prev, Eigen::Vector2f* p_curr, KltTemplateCache* cache = nullptr,
                  int slot = -1);
