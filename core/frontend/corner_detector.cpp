@@ -120,6 +120,22 @@ inline F4 sqrt4(F4 v) {
 #endif
 }
 
+// Calls step(x) for x = x0, x0 + kStep, ... while kStep pixels fit in [x0, x1), then, in a run
+// of kStep pixels or more, once more on its last kStep: that step overlaps the one before, whose
+// pixels it writes again with the same values (or takes their maximum again), instead of a scalar
+// loop over the last few. Returns the first pixel left to a scalar loop (x1 when none).
+template <int kStep, class Step>
+inline int vector_steps(int x0, int x1, Step&& step) {
+  int x = x0;
+#pragma GCC unroll 4
+  for (; x + kStep <= x1; x += kStep) step(x);
+  if (x < x1 && x1 - x0 >= kStep) {
+    step(x1 - kStep);
+    return x1;
+  }
+  return x;
+}
+
 // Sobel gradients of row r1 (r0 above, r2 below) and their products, x in x0 .. x1-1 (x0 >= 1,
 // x1 <= width - 1): 8 pixels per step, on 16-bit lanes (|dx|, |dy| <= 4 * 255).
 void sobel_products(const std::uint8_t* __restrict r0, const std::uint8_t* __restrict r1,
@@ -139,16 +155,7 @@ void sobel_products(const std::uint8_t* __restrict r0, const std::uint8_t* __res
       store_lanes(yy + x + 4 * h, fy[h] * fy[h]);
     }
   };
-  int x = x0;
-#pragma GCC unroll 4
-  for (; x + 8 <= x1; x += 8) step8(x);
-  // The last pixels of a run of 8 or more: the 8 ending at x1 again (their lanes write the values
-  // already there), not the scalar loop.
-  if (x < x1 && x1 - x0 >= 8) {
-    step8(x1 - 8);
-    return;
-  }
-  for (; x < x1; ++x) {
+  for (int x = vector_steps<8>(x0, x1, step8); x < x1; ++x) {
     const int dx = (r0[x + 1] - r0[x - 1]) + 2 * (r1[x + 1] - r1[x - 1]) + (r2[x + 1] - r2[x - 1]);
     const int dy = (r2[x - 1] - r0[x - 1]) + 2 * (r2[x] - r0[x]) + (r2[x + 1] - r0[x + 1]);
     const float fdx = static_cast<float>(dx), fdy = static_cast<float>(dy);
@@ -162,14 +169,7 @@ void sobel_products(const std::uint8_t* __restrict r0, const std::uint8_t* __res
 void sum3_rows(const float* __restrict a, const float* __restrict b, const float* __restrict c, float* __restrict out,
                int x0, int x1) {
   auto step4 = [&](int x) { store_lanes(out + x, load_lanes(a + x) + load_lanes(b + x) + load_lanes(c + x)); };
-  int x = x0;
-#pragma GCC unroll 4
-  for (; x + 4 <= x1; x += 4) step4(x);
-  if (x < x1 && x1 - x0 >= 4) {  // the last 4 again, as in sobel_products
-    step4(x1 - 4);
-    return;
-  }
-  for (; x < x1; ++x) out[x] = a[x] + b[x] + c[x];
+  for (int x = vector_steps<4>(x0, x1, step4); x < x1; ++x) out[x] = a[x] + b[x] + c[x];
 }
 
 // The smaller eigenvalue of the 3x3-summed tensor from the vertical sums va, vb, vc (Ixx, Ixy,
@@ -182,14 +182,7 @@ void shi_tomasi_row(const float* __restrict va, const float* __restrict vb, cons
     const F4 sc = (load_lanes(vc + x - 1) + load_lanes(vc + x) + load_lanes(vc + x + 1)) * norm;
     store_lanes(out + x, 0.5f * ((sa + sc) - sqrt4((sa - sc) * (sa - sc) + 4.0f * sb * sb)));
   };
-  int x = x0;
-#pragma GCC unroll 4
-  for (; x + 4 <= x1; x += 4) step4(x);
-  if (x < x1 && x1 - x0 >= 4) {  // the last 4 again, as in sobel_products
-    step4(x1 - 4);
-    return;
-  }
-  for (; x < x1; ++x) {
+  for (int x = vector_steps<4>(x0, x1, step4); x < x1; ++x) {
     const float sa = (va[x - 1] + va[x] + va[x + 1]) * norm;
     const float sb = (vb[x - 1] + vb[x] + vb[x + 1]) * norm;
     const float sc = (vc[x - 1] + vc[x] + vc[x + 1]) * norm;
@@ -214,14 +207,7 @@ void masked_max(const float* __restrict out, const std::uint8_t* __restrict m, i
     }
     mx = v > mx ? v : mx;
   };
-  int x = x0;
-#pragma GCC unroll 4
-  for (; x + 4 <= x1; x += 4) step4(x);
-  if (x < x1 && x1 - x0 >= 4) {
-    step4(x1 - 4);
-  } else {
-    for (; x < x1; ++x) mx[0] = std::max(mx[0], m[x] == 0 ? out[x] : 0.0f);
-  }
+  for (int x = vector_steps<4>(x0, x1, step4); x < x1; ++x) mx[0] = std::max(mx[0], m[x] == 0 ? out[x] : 0.0f);
   *lanes = mx;
 }
 
