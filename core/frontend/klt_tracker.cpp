@@ -131,6 +131,18 @@ Weights quantized_weights(float ax, float ay) {
   return {kWeightOne - X - Y + w11, X - w11, Y - w11, w11};
 }
 
+// A patch whose top-left sample sits at (x, y): the integer pixel under it and the weights of
+// its fractions, the same for every sampler (the direct sparse template must equal sample_fixed).
+struct PatchOrigin {
+  int x0 = 0, y0 = 0;
+  Weights w{};
+};
+
+PatchOrigin patch_origin(float x, float y) {
+  const float fx0 = std::floor(x), fy0 = std::floor(y);
+  return {static_cast<int>(fx0), static_cast<int>(fy0), quantized_weights(x - fx0, y - fy0)};
+}
+
 // 8 integer sums of pixel x weight (below 2^15) out as floats: grey levels (kGrey), or the sums.
 #if defined(__ARM_NEON)
 template <bool kGrey>
@@ -213,9 +225,9 @@ void clamped_row(const std::uint8_t* r, int w, int x0, int src, std::uint8_t* ou
 // repeated.
 template <bool kGrey>
 void sample_fixed(const ImageView& image, float x, float y, int n, float* out) {
-  const float fx0 = std::floor(x), fy0 = std::floor(y);
-  const int x0 = static_cast<int>(fx0), y0 = static_cast<int>(fy0);
-  const Weights w = quantized_weights(x - fx0, y - fy0);
+  const PatchOrigin origin = patch_origin(x, y);
+  const int x0 = origin.x0, y0 = origin.y0;
+  const Weights& w = origin.w;
   const int cols = (n + kChunk - 1) / kChunk * kChunk;
   const int src = cols + 1;
   alignas(16) float scratch[kMaxSrcRow];
@@ -293,9 +305,9 @@ inline void sample_chunk_step2(const std::uint8_t* r0, const std::uint8_t* r1, c
 // rows with the border pixels repeated.
 template <bool kGrey>
 void sample_fixed_step2(const ImageView& image, float x, float y, int n, float* out) {
-  const float fx0 = std::floor(x), fy0 = std::floor(y);
-  const int x0 = static_cast<int>(fx0), y0 = static_cast<int>(fy0);
-  const Weights w = quantized_weights(x - fx0, y - fy0);
+  const PatchOrigin origin = patch_origin(x, y);
+  const int x0 = origin.x0, y0 = origin.y0;
+  const Weights& w = origin.w;
   const int cols = (n + kChunk - 1) / kChunk * kChunk;
   const int src = 2 * cols;
   const std::uint8_t* rows[kMaxSrcRows];
@@ -512,15 +524,14 @@ bool sparse_template(const TemplateRef& t, int n, const KltOptions& options, Klt
 int sparse_template_direct(const ImageView& I, const Eigen::Vector2f& p, const KltOptions& options, KltWorkspace* ws,
                            TemplateRef* s) {
   const int n = options.window_px, half = n / 2, ne = n + 2, side = half + 1;
-  const float x = p.x() - static_cast<float>(half + 1), y = p.y() - static_cast<float>(half + 1);
-  const float fx0 = std::floor(x), fy0 = std::floor(y);
-  const int x0 = static_cast<int>(fx0), y0 = static_cast<int>(fy0);
+  const PatchOrigin origin = patch_origin(p.x() - static_cast<float>(half + 1), p.y() - static_cast<float>(half + 1));
+  const int x0 = origin.x0, y0 = origin.y0;
   const int cols = (ne + kChunk - 1) / kChunk * kChunk;
   // Bytes read past x0: the odd rows' chunks up to x0 + cols, the even rows' 16-byte chunks from
   // x0 + 1 up to x0 + 2 ceil8(side) (past the patch for n = 5, 17, 19, 21: still inside the image).
   const int last_byte = std::max(cols, 2 * ((side + kChunk - 1) / kChunk * kChunk));
   if (!(x0 >= 0 && x0 + last_byte < I.width && y0 >= 0 && y0 + ne < I.height)) return -1;
-  const Weights w = quantized_weights(x - fx0, y - fy0);
+  const Weights& w = origin.w;
   const long stride = I.stride;
   // Rows 0, 2, ..., 2 side of the patch at its odd columns 1, 3, ..., 2 side - 1.
   alignas(16) float even[(kMaxSparseSide + 1) * kMaxSparseCols];
@@ -622,6 +633,26 @@ bool iterate_level(const ImageView& J, const Eigen::Vector2f& p, const Eigen::Ve
   return nu->squaredNorm() <= static_cast<float>(half * half);
 }
 
+// The template level `level` iterates on, into *t: the sparse grid's (*sparse) or the whole
+// window's. A sparse level whose template no cache keeps (the stereo confirmations': used once,
+// on the sparse grid) samples that grid alone; the others sample (or read) the whole template
+// and cut the sparse one from it. False when the level has no usable template.
+bool iteration_template(const ImagePyramid& prev, int level, const Eigen::Vector2f& p_prev, const Eigen::Vector2f& p,
+                        const KltOptions& options, KltTemplateCache* cache, int slot, KltWorkspace* ws, TemplateRef* t,
+                        bool* sparse) {
+  const bool want_sparse = level >= options.sparse_from_level;
+  const bool uncached = cache == nullptr || slot < 0 || slot >= cache->slots() || level >= cache->levels();
+  const int direct = want_sparse && uncached ? sparse_template_direct(prev.level(level), p, options, ws, t) : -1;
+  *sparse = direct == 1;
+  if (*sparse) return true;
+  TemplateRef dense;
+  if (!level_template(prev, level, p_prev, p, options, cache, slot, ws, &dense)) return false;
+  // direct == 0: that sparse template is untextured, as the one cut from dense would be.
+  *sparse = want_sparse && direct == -1 && sparse_template(dense, options.window_px, options, ws, t);
+  if (!*sparse) *t = dense;
+  return true;
+}
+
 }  // namespace
 
 int klt_template_floats(int window_px) { return 3 * template_stride(window_px) + kSumFloats; }
@@ -637,28 +668,18 @@ Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels,
   // Displacement (guess + flow) carried from level to level, in the current level's pixels.
   Eigen::Vector2f g = (*p_curr - p_prev) * top_scale;
   bool converged = false;
-  TemplateRef dense, t;
+  TemplateRef t;
   const WindowGrid dense_grid{options.window_px, 1}, sparse_grid{half + 1, 2};
   WindowGrid grid = dense_grid;
   for (int level = levels - 1; level >= 0; --level) {
     const Eigen::Vector2f p = p_prev * (1.0f / static_cast<float>(1 << level));
-    // A sparse level whose template no cache keeps (the stereo confirmations': used once, on the
-    // sparse grid) samples that grid alone.
-    const bool want_sparse = level >= options.sparse_from_level;
-    const bool uncached = cache == nullptr || slot < 0 || slot >= cache->slots() || level >= cache->levels();
-    const int direct = want_sparse && uncached ? sparse_template_direct(prev.level(level), p, options, &ws, &t) : -1;
-    bool sparse = direct == 1;
-    if (!sparse) {
-      // A coarse level that cannot be used (blurred flat, or mostly outside a small image) is
-      // skipped: the finer levels still refine the carried displacement. Level 0 must succeed.
-      if (!level_template(prev, level, p_prev, p, options, cache, slot, &ws, &dense)) {
-        if (level == 0) return Status::kNotConverged;
-        g *= 2.0f;
-        continue;
-      }
-      // direct == 0: that sparse template is untextured, as the one cut from dense would be.
-      sparse = want_sparse && direct == -1 && sparse_template(dense, options.window_px, options, &ws, &t);
-      if (!sparse) t = dense;
+    // A coarse level that cannot be used (blurred flat, or mostly outside a small image) is
+    // skipped: the finer levels still refine the carried displacement. Level 0 must succeed.
+    bool sparse = false;
+    if (!iteration_template(prev, level, p_prev, p, options, cache, slot, &ws, &t, &sparse)) {
+      if (level == 0) return Status::kNotConverged;
+      g *= 2.0f;
+      continue;
     }
     grid = sparse ? sparse_grid : dense_grid;
     Eigen::Vector2f nu;
