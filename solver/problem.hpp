@@ -220,6 +220,10 @@ class Problem {
   void accumulate_lifted(const Residual& rb, const double* r);
   bool finish_lift(int l);
   void add_lift_couplings(int l, const double* G);
+  bool lift_jacobian(int l, double* G);  // G = d p / d (host, landmark) of landmark l's lift
+  bool finish_lift_gradient(int l);      // a gradient pass's lift terms: b_h, g_l from s only
+  // A gradient pass (linearize_gradient): b += J^T r, g_l += J_l^T r, a lift's s += A^T r.
+  void accumulate_gradient(const Residual& rb, const double* r);
   int accumulate_reduced(const Residual& rb, const double* r);
   void accumulate_landmark1(const Residual& rb, int l, const double* Jl, const double* r);
   void accumulate_landmark(const Residual& rb, int l, const double* Jl, const double* r);
@@ -241,6 +245,9 @@ class Problem {
   // Cost (and, with jacobians, H_, b_, landmark blocks) at the current values; false if not finite.
   // The residuals' values go to kept_[kept_write_] when kept_write_ >= 0.
   bool linearize(bool jacobians, double* cost);
+  // linearize(true) forming only the gradient (b, g_l) at the current values: H, H_ll and V stay
+  // those of the last whole linearization (SolverOptions::reuse_gauss_newton_matrix).
+  bool linearize_gradient(double* cost);
   void assign_kept_rows();  // kept_off_ (prepare())
   void snapshot_solution();  // solved_x_, kept_valid_ (end of solve())
   double fixed_cost();
@@ -358,6 +365,7 @@ class Problem {
   double lift_X_[capacity::kMaxCouplingsPerLandmark][18] = {};
   bool lift_used_[capacity::kMaxCouplingsPerLandmark] = {};
   int lift_host_slot_ = -1;
+  bool gradient_pass_ = false;  // set by linearize_gradient() while it runs
 
   // Step computation.
   DenseMatrix S_;

@@ -21,14 +21,15 @@ constexpr int kG = 7;  // columns of G: the 6-dof host, the 1-dof landmark
 }  // namespace
 
 void Problem::begin_lift(int l) {
-  std::fill(lift_S_, lift_S_ + 9, 0.0);
   std::fill(lift_s_, lift_s_ + 3, 0.0);
+  lift_host_slot_ = -1;
+  if (gradient_pass_) return;  // s alone: S and X stay the last whole linearization's
+  std::fill(lift_S_, lift_S_ + 9, 0.0);
   const int n = lm_cpl_begin_[l + 1] - lm_cpl_begin_[l];
   for (int i = 0; i < n; ++i) {
     lift_used_[i] = false;
     std::fill(lift_X_[i], lift_X_[i] + 18, 0.0);
   }
-  lift_host_slot_ = -1;
 }
 
 // One lifted residual: A = d r / d p in its host's Jacobian slot; its other blocks are 6-dof
@@ -65,13 +66,18 @@ void Problem::accumulate_lifted(const Residual& rb, const double* r) {
 }
 
 // The host and landmark terms of landmark l from its sums and G. false: the lift failed.
-bool Problem::finish_lift(int l) {
-  if (lift_host_slot_ < 0) return true;  // no residual of l was lifted: nothing to form
+bool Problem::lift_jacobian(int l, double* G) {
   const LiftRef& lr = lifts_[lm_lift_[l]];
   const double* xs[capacity::kMaxBlocksPerResidual];
   for (int i = 0; i < lr.num_blocks; ++i) xs[i] = blocks_[lr.blocks[i]].x;
+  return lr.fn->evaluate(xs, G);
+}
+
+bool Problem::finish_lift(int l) {
+  if (lift_host_slot_ < 0) return true;  // no residual of l was lifted: nothing to form
+  const LiftRef& lr = lifts_[lm_lift_[l]];
   double G[3 * kG];
-  if (!lr.fn->evaluate(xs, G)) return false;
+  if (!lift_jacobian(l, G)) return false;
   double S[9];
   for (int k = 0; k < 3; ++k)
     for (int m = 0; m < 3; ++m) S[3 * k + m] = k <= m ? lift_S_[3 * k + m] : lift_S_[3 * m + k];
@@ -95,6 +101,17 @@ bool Problem::finish_lift(int l) {
   Hll_[l][0] += g[0] * Sg[0] + g[1] * Sg[1] + g[2] * Sg[2];
   gl_[l][0] += g[0] * lift_s_[0] + g[1] * lift_s_[1] + g[2] * lift_s_[2];
   add_lift_couplings(l, G);
+  return true;
+}
+
+// b_h += G_h^T s, g_l += g^T s: the gradient terms of finish_lift, in its order.
+bool Problem::finish_lift_gradient(int l) {
+  if (lift_host_slot_ < 0) return true;
+  double G[3 * kG];
+  if (!lift_jacobian(l, G)) return false;
+  const int oh = blocks_[lifts_[lm_lift_[l]].blocks[0]].index;
+  for (int i = 0; i < 6; ++i) (*acc_b_)[oh + i] += G[i] * lift_s_[0] + G[kG + i] * lift_s_[1] + G[2 * kG + i] * lift_s_[2];
+  gl_[l][0] += G[6] * lift_s_[0] + G[kG + 6] * lift_s_[1] + G[2 * kG + 6] * lift_s_[2];
   return true;
 }
 

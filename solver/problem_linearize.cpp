@@ -45,7 +45,14 @@ bool Problem::evaluate_residual(const Residual& rb, bool jacobians, double* r, d
   }
   if (!rb.fn->evaluate(rb.params, r, jv)) return false;
   const int rows = rb.rows;
-  if (keep != nullptr) std::copy(r, r + rows, keep);
+  if (keep != nullptr) {
+    if (rows == 2) {  // the reprojections: two stores, not a memmove call
+      keep[0] = r[0];
+      keep[1] = r[1];
+    } else {
+      std::copy(r, r + rows, keep);
+    }
+  }
   // Two rows (the reprojections): the loop's sum, (0 + r0^2) + r1^2, without the loop.
   double sq = rows == 2 ? r[0] * r[0] + r[1] * r[1] : 0.0;
   if (rows != 2)
@@ -121,6 +128,10 @@ void Problem::accumulate_two_row(const Residual& rb, const double* r) {
 // J^T J, J^T r of one residual into H, b and its landmark's H_ll, g_l, V (touched_ marks blocks).
 void Problem::accumulate_residual(int res_index, const double* r) {
   const Residual& rb = residuals_[res_index];
+  if (gradient_pass_) {
+    accumulate_gradient(rb, r);
+    return;
+  }
   const int rows = rb.rows;
   if (rb.lift_pos >= 0) {
     accumulate_lifted(rb, r);
@@ -141,6 +152,56 @@ void Problem::accumulate_residual(int res_index, const double* r) {
     accumulate_landmark1(rb, l, jac_ws_[lm_j], r);
   else
     accumulate_landmark(rb, l, jac_ws_[lm_j], r);
+}
+
+void Problem::accumulate_gradient(const Residual& rb, const double* r) {
+  const int rows = rb.rows;
+  if (rows == 2 && rb.fast2) {  // the reprojections: 2 x 6 pose blocks, a point or a 1-dof landmark
+    for (int a = 0; a < rb.num_sorted; ++a) {
+      const int ka = rb.sorted[a];
+      if (ka == rb.lift_pos) continue;
+      const double* J = jac_ws_[ka];
+      Pair j0[3], j1[3];
+      for (int i = 0; i < 3; ++i) {
+        j0[i] = load_pair(J + 2 * i);
+        j1[i] = load_pair(J + 6 + 2 * i);
+      }
+      col_update2<6>(acc_b_->data() + blocks_[rb.blocks[ka]].index, j0, j1, r[0], r[1]);
+    }
+    if (rb.lift_pos >= 0) {
+      const double* A = jac_ws_[rb.lift_pos];
+      for (int k = 0; k < 3; ++k) lift_s_[k] += A[k] * r[0] + A[3 + k] * r[1];
+      lift_host_slot_ = rb.slot[rb.lift_pos];
+    } else if (rb.lm_pos >= 0 && jac_wanted_[rb.lm_pos]) {
+      const double* Jl = jac_ws_[rb.lm_pos];
+      gl_[rb.landmark][0] += Jl[0] * r[0] + Jl[1] * r[1];
+    }
+    return;
+  }
+  for (int a = 0; a < rb.num_blocks; ++a) {
+    const double* J = jac_ws_[a];
+    if (a == rb.lift_pos) {  // A = d r / d p, rows x 3
+      for (int k = 0; k < 3; ++k) {
+        double s = 0.0;
+        for (int i = 0; i < rows; ++i) s += J[3 * i + k] * r[i];
+        lift_s_[k] += s;
+      }
+      lift_host_slot_ = rb.slot[a];
+      continue;
+    }
+    if (!jac_wanted_[a]) continue;
+    const Block& ba = blocks_[rb.blocks[a]];
+    if (!ba.eliminate) {
+      add_jtr(*acc_b_, ba.index, J, ba.tangent, r, rows);
+      continue;
+    }
+    const int l = ba.index, e = lm_dim_[l];
+    for (int p = 0; p < e; ++p) {
+      double g = 0.0;
+      for (int i = 0; i < rows; ++i) g += J[i * e + p] * r[i];
+      gl_[l][p] += g;
+    }
+  }
 }
 
 // General path, reduced blocks: b += J_a^T r, H(a, c) += J_a^T J_c (upper triangle). Returns the
@@ -248,8 +309,11 @@ bool Problem::linearize_prior(const PriorRef& p, bool jacobians, double* cost) {
   if (!jacobians) return true;
   // d r / d delta_k = J[:, k] B_k; H = B^T (J^T J) B, g = B^T J^T r, with B block-diagonal.
   pe_.noalias() = prior.sqrt_information().transpose() * pr_;
-  M_.resize(dim, dim);
-  M_.m() = prior.information();
+  const bool full = !gradient_pass_;
+  if (full) {
+    M_.resize(dim, dim);
+    M_.m() = prior.information();
+  }
   int k = 0;
   for (int i = 0; i < prior.num_blocks(); ++i) {
     const PriorBlock& pb = prior.block(i);
@@ -257,6 +321,7 @@ bool Problem::linearize_prior(const PriorRef& p, bool jacobians, double* cost) {
     const int o = pb.offset + 3;
     const Eigen::Matrix3d R = rot[k++];
     pe_.segment<3>(o) = (R.transpose() * pe_.segment<3>(o)).eval();
+    if (!full) continue;
     for (int c = 0; c < dim; ++c) M_.m().block<3, 1>(o, c) = (R.transpose() * M_.m().block<3, 1>(o, c)).eval();
     for (int rr = 0; rr < dim; ++rr) M_.m().block<1, 3>(rr, o) = (M_.m().block<1, 3>(rr, o) * R).eval();
   }
@@ -266,7 +331,7 @@ bool Problem::linearize_prior(const PriorRef& p, bool jacobians, double* cost) {
     if (mark_touched_) touched_[p.blocks[i]] = true;
     const PriorBlock& pi = prior.block(i);
     b_.segment(bi.index, bi.tangent) += pe_.segment(pi.offset, pi.tangent_size);
-    for (int j = 0; j < prior.num_blocks(); ++j) {
+    for (int j = 0; full && j < prior.num_blocks(); ++j) {
       const Block& bj = blocks_[p.blocks[j]];
       if (bj.constant || bj.index < bi.index) continue;
       const PriorBlock& pj = prior.block(j);
@@ -285,6 +350,13 @@ void Problem::zero_upper(MatrixMap H) {
 }
 
 void Problem::zero_linear_system() {
+  if (gradient_pass_) {
+    b_.setZero();
+    if (hinted_) bsep_.head(n_front_).setZero();
+    for (int l = 0; l < num_lm_; ++l)
+      for (int i = 0; i < 3; ++i) gl_[l][i] = 0.0;
+    return;
+  }
   zero_upper(H_.m());
   b_.setZero();
   if (hinted_) {
@@ -348,6 +420,13 @@ bool Problem::linearize(bool jacobians, double* cost) {
   return true;
 }
 
+bool Problem::linearize_gradient(double* cost) {
+  gradient_pass_ = true;
+  const bool ok = linearize(true, cost);
+  gradient_pass_ = false;
+  return ok;
+}
+
 bool Problem::linearize_landmark(int l, bool jacobians, double* total, double* kept) {
   double r[capacity::kMaxResidualSize];
   double c = 0.0;
@@ -359,11 +438,15 @@ bool Problem::linearize_landmark(int l, bool jacobians, double* total, double* k
     *total += c;
     if (jacobians) accumulate_residual(k, r);
   }
-  return !lifted || finish_lift(l);
+  return !lifted || (gradient_pass_ ? finish_lift_gradient(l) : finish_lift(l));
 }
 
 // Rows [0, n_front_) are the blocks landmarks couple to: the only ones their residuals reach.
 void Problem::add_separated() {
+  if (gradient_pass_) {
+    for (int i = 0; i < n_front_; ++i) b_[i] += bsep_[i];
+    return;
+  }
   MatrixMap H = H_.m();
   const MatrixMap Hs = Hsep_.m();
   for (int j = 0; j < n_front_; ++j) {

@@ -238,12 +238,17 @@ bool Problem::accept_step(LmState& s, double cand_cost, double relative_decrease
                  s.x_cost + s.fixed);
   }
   s.x_norm = variable_x_norm();
-  if (!linearize(true, &s.x_cost)) {
+  // After the first accepted step only: later ones are far from a warm start, where a matrix
+  // that old would slow the convergence.
+  const bool gradient_only = o.reuse_gauss_newton_matrix && s.summary.successful_steps == 0;
+  const bool linearized = gradient_only ? linearize_gradient(&s.x_cost) : linearize(true, &s.x_cost);
+  if (!linearized) {
     restore_values();
     kept_cur_ = 1 - kept_cur_;
     return s.end(SolverStatus::kNumericalFailure, Termination::kFailure, s.x_cost + s.fixed);
   }
   ++s.summary.linearizations;
+  if (gradient_only) ++s.summary.gradient_passes;
   s.grad_norm = gradient_max_norm();
   s.step_successful = true;
   ++s.summary.successful_steps;

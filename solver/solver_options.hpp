@@ -34,6 +34,13 @@ struct SolverOptions {
   // one: a sliding window's next solve starts from there anyway, and that linearization is most
   // often spent only on finding that the next step is too small to take (docs/solver.md).
   int max_successful_steps = 0;
+  // Not in Ceres, false turns it off. At the first accepted step only the gradient J^T r is
+  // formed again (Jacobians evaluated there); the Gauss-Newton matrix stays the first one until
+  // the next accepted step, whose linearization is whole. Steps, models and tests are as before
+  // with that matrix, and the solve still stops where the true gradient vanishes. A warm-started
+  // window solve most often ends after that second step (or on finding it too small), and half of
+  // a linearization is the J^T J sums and the landmark couplings (docs/solver.md).
+  bool reuse_gauss_newton_matrix = false;
 
   bool validate() const {
     return max_iterations >= 0 && max_time_s > 0.0 && function_tolerance >= 0.0 &&
@@ -66,6 +73,7 @@ struct SolverSummary {
   int iterations = 0;         // completed step attempts (= Ceres' summary.iterations.size() - 1)
   int successful_steps = 0;
   int linearizations = 0;     // Jacobian evaluations of the whole problem
+  int gradient_passes = 0;    // of them, gradient only (reuse_gauss_newton_matrix)
   Termination termination = Termination::kNone;
   double solve_time_s = 0.0;  // s; wall time inside solve()
 };

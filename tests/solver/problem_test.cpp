@@ -1070,4 +1070,106 @@ TEST_CASE("A step predicted below the function tolerance ends the solve without 
   CHECK(problem->solve(opt, &sum) == SolverStatus::kInvalidInput);
 }
 
+
+TEST_CASE("Reusing the Gauss-Newton matrix: the solve stops where the true gradient vanishes, the second "
+          "linearization forming the gradient only",
+          "[solver][problem]") {
+  for (const bool lifts : {false, true}) {
+    INFO("point lifts " << lifts);
+    WindowConfig cfg = small_window(false, true);  // noisy: the optimum keeps residuals (J^T r = 0, r != 0)
+    cfg.point_lifts = lifts;
+    auto run = [&](bool reuse, std::vector<double>* state, SolverSummary* sum) {
+      auto w = bench::make_vio_window(cfg);
+      auto problem = std::make_unique<Problem>();
+      REQUIRE(bench::add_to_problem(*w, *problem) == SolverStatus::kOk);
+      SolverOptions opt;
+      opt.function_tolerance = 1e-14;
+      opt.parameter_tolerance = 1e-14;
+      opt.gradient_tolerance = 1e-12;
+      opt.reuse_gauss_newton_matrix = reuse;
+      REQUIRE(usable(problem->solve(opt, sum)));
+      state->clear();
+      for (const auto& p : w->poses) state->insert(state->end(), p.begin(), p.end());
+      for (const double d : w->inv_depth) state->push_back(d);
+    };
+    std::vector<double> x_full, x_reuse;
+    SolverSummary full, reuse;
+    run(false, &x_full, &full);
+    run(true, &x_reuse, &reuse);
+    INFO("Gauss-Newton: " << full.successful_steps << " steps, reused matrix: " << reuse.successful_steps);
+    CHECK(full.gradient_passes == 0);
+    REQUIRE(reuse.successful_steps >= 2);
+    CHECK(reuse.gradient_passes == 1);  // at the first accepted step, whole linearizations after it
+    CHECK(reuse.final_cost < 0.5 * reuse.initial_cost);
+    // The same minimum: a gradient formed with the first Jacobians (J_0^T r) would stop where
+    // that one vanishes, a whole step away (metres and inverse metres, 1e-3 and more here).
+    CHECK(std::abs(reuse.final_cost - full.final_cost) <= 1e-9 * full.final_cost);
+    double dx = 0.0;
+    for (std::size_t i = 0; i < x_full.size(); ++i) dx = std::max(dx, std::abs(x_full[i] - x_reuse[i]));
+    CHECK(dx < 1e-6);
+  }
+}
+
+
+TEST_CASE("Reusing the Gauss-Newton matrix: the second step is the first matrix's step on the new gradient",
+          "[solver][problem]") {
+  // r = 10 (x^3 - 1), J = 30 x^2, from x0 = 0.95 with a radius so large that the damping is below
+  // rounding: x1 = x0 - r0 / J0 (Gauss-Newton), then x2 = x1 - J1 r1 / J0^2 (gradient at x1, matrix
+  // at x0). A gradient formed with J0 would give x1 - r1 / J0, Gauss-Newton x1 - r1 / J1.
+  auto problem = std::make_unique<Problem>();
+  const CubeResidual f;
+  double x = 0.95;
+  BlockId id = 0;
+  REQUIRE(problem->add_euclidean_block(&x, 1, &id) == SolverStatus::kOk);
+  REQUIRE(problem->add_residual(&f, RobustLoss::trivial(), {id}) == SolverStatus::kOk);
+  SolverOptions opt;
+  opt.initial_trust_region_radius = 1e16;
+  opt.max_successful_steps = 2;
+  opt.reuse_gauss_newton_matrix = true;
+  SolverSummary sum;
+  REQUIRE(usable(problem->solve(opt, &sum)));
+  REQUIRE(sum.successful_steps == 2);
+  CHECK(sum.gradient_passes == 1);
+  const double x0 = 0.95, r0 = 10.0 * (x0 * x0 * x0 - 1.0), J0 = 30.0 * x0 * x0;
+  const double x1 = x0 - r0 / J0, r1 = 10.0 * (x1 * x1 * x1 - 1.0), J1 = 30.0 * x1 * x1;
+  const double expected = x1 - J1 * r1 / (J0 * J0);
+  CHECK(std::abs(x - expected) < 1e-12);
+  CHECK(std::abs(x - (x1 - r1 / J0)) > 1e-4);  // the stale gradient's step lands elsewhere
+  CHECK(std::abs(x - (x1 - r1 / J1)) > 1e-4);  // and so does the Gauss-Newton step
+}
+
+TEST_CASE("Reusing the Gauss-Newton matrix: the gradient pass through point lifts equals the plain one",
+          "[solver][problem]") {
+  // Two accepted steps, the second from the gradient pass: with and without the landmarks' lifts
+  // (problem_lift.cpp, finish_lift_gradient) the same step to rounding; the whole linearization's
+  // second step differs from both (another matrix).
+  auto run = [](bool lifts, bool reuse) {
+    WindowConfig cfg = small_window(false, true);
+    cfg.point_lifts = lifts;
+    auto w = bench::make_vio_window(cfg);
+    auto problem = std::make_unique<Problem>();
+    REQUIRE(bench::add_to_problem(*w, *problem) == SolverStatus::kOk);
+    SolverOptions opt;
+    opt.max_successful_steps = 2;
+    opt.reuse_gauss_newton_matrix = reuse;
+    SolverSummary sum;
+    REQUIRE(usable(problem->solve(opt, &sum)));
+    REQUIRE(sum.successful_steps == 2);
+    CHECK(sum.gradient_passes == (reuse ? 1 : 0));
+    std::vector<double> x;
+    for (const auto& p : w->poses) x.insert(x.end(), p.begin(), p.end());
+    for (const auto& sb : w->speed_bias) x.insert(x.end(), sb.begin(), sb.end());
+    for (const double d : w->inv_depth) x.push_back(d);
+    return x;
+  };
+  const std::vector<double> plain = run(false, true), lifted = run(true, true), whole = run(false, false);
+  double d_lift = 0.0, d_whole = 0.0;
+  for (std::size_t i = 0; i < plain.size(); ++i) {
+    d_lift = std::max(d_lift, std::abs(plain[i] - lifted[i]));
+    d_whole = std::max(d_whole, std::abs(plain[i] - whole[i]));
+  }
+  CHECK(d_lift < 1e-10);
+  CHECK(d_whole > 1e-8);
+}
+
 }  // namespace ums::solver
