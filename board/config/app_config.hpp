@@ -31,7 +31,9 @@ struct AppConfig {
   // Back end
   double max_solver_time_s = 0.04;      // s, wall-time bound of one window solve (VINS max_solver_time)
   int max_num_iterations = 8;           // solver iterations per window solve (VINS max_num_iterations)
-  int max_steps_per_solve = 0;          // accepted LM steps per first-round window solve (0: until converged)
+  int max_steps_per_solve = 1;          // accepted LM steps per first-round window solve (0: until converged)
+  bool max_steps_at_keyframes = false;  // the budget also at keyframes (false: they converge)
+  bool reuse_gauss_newton_matrix = true;   // window solves: at the first step, the gradient only
   bool estimate_extrinsic = false;      // refine T_b_c around the given values (VINS estimate_extrinsic 1)
   bool estimate_td = false;             // estimate the camera-IMU time offset (VINS estimate_td)
   bool estimate_gyro_scale = false;     // estimate the gyro's per-axis scale-factor error

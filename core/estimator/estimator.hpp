@@ -57,6 +57,7 @@ class Initializer;
 class PnpLocator;
 struct WindowBackup;
 struct SolveSpec;
+struct SolveBudget;
 
 // The estimate at one frame (camera rate).
 struct EstimatorOutput {
@@ -158,6 +159,8 @@ class Estimator {
   ModeEvent frame_vo(WindowFrame& f);
   void frame_vio(WindowFrame& f, EstimatorTiming* timing);
   void hold_gauge(const Eigen::Isometry3d& T_w_b0_before);
+  // The first-round solves' budget for frame f (max_steps_stage, unless f is an exempt keyframe).
+  SolveBudget round1_budget(const WindowFrame& f) const;
   bool solve_stages(WindowFrame& f, SolveSpec* spec);
   void second_round(const SolveSpec& spec, bool converged);
   bool begin_relocation();

@@ -64,7 +64,7 @@ ModeEvent Estimator::frame_vo(WindowFrame& f) {
   spec.prior = false;
   spec.fix_first_pose = true;
   bool converged = false;
-  builder_->solve(spec, {options_.max_iterations_stage, options_.max_steps_stage}, &converged);
+  builder_->solve(spec, round1_budget(f), &converged);
   second_round(spec, converged);
   if (dt > 0.0) vo_velocity_ = (state::p(f.pose) - state::p(prev.pose)) / dt;
   state::v(f.sb) = vo_velocity_;
@@ -187,8 +187,16 @@ void Estimator::end_relocation(const Eigen::Isometry3d& T_b0_loop, const SolveSp
   relocation_link_->on_relocated(res);
 }
 
+// A keyframe's solve ends in the linearization its marginalization reuses (slide_window): cut
+// short, the marginalization would linearize its landmarks again, and the prior would hold
+// states one step from their optimum.
+SolveBudget Estimator::round1_budget(const WindowFrame& f) const {
+  const bool exempt = f.keyframe && !options_.max_steps_at_keyframes;
+  return {options_.max_iterations_stage, exempt ? 0 : options_.max_steps_stage};
+}
+
 bool Estimator::solve_stages(WindowFrame& f, SolveSpec* spec) {
-  const SolveBudget budget{options_.max_iterations_stage, options_.max_steps_stage};
+  const SolveBudget budget = round1_budget(f);
   bool converged = false;
   if (!options_.two_stage) {
     spec->groups = kAllGroups;

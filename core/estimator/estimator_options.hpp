@@ -70,10 +70,12 @@ struct EstimatorOptions {
   double stage_agree_deg = 1.0;           // deg
   int max_iterations_stage = 3;           // LM iterations of the first-round solve that is kept
   int max_iterations_stage_a = 1;         // LM iterations of the stereo-only check solve
-  int max_steps_stage = 0;                // accepted LM steps of a first-round solve (0: until a
+  int max_steps_stage = 1;                // accepted LM steps of a first-round solve (0: until a
                                           // tolerance or max_iterations_stage). The solve ends
                                           // without linearizing at its last step; the next frame's
                                           // solve continues from there (docs/estimator.md)
+  bool max_steps_at_keyframes = false;    // false: a keyframe's solves run to convergence (its
+                                          // oldest frame and landmarks enter the prior from them)
   double share_2d = 0.3;                  // 1, share of the landmark budget offered to 2D features
   int max_iterations_round2 = 4;          // LM iterations of the second round
   double round2_time_s = 0.010;           // s, time budget of the second round (paper: bounded)
@@ -81,6 +83,8 @@ struct EstimatorOptions {
   double predicted_stop_share = 0.5;      // 1, a step whose model change is below this share of
                                           // the function tolerance ends the solve unevaluated
                                           // (SolverOptions::predicted_stop_share; 0: Ceres)
+  bool reuse_gauss_newton_matrix = true;  // the first accepted step forms only the gradient
+                                          // again (SolverOptions::reuse_gauss_newton_matrix)
   bool two_stage = true;                  // false: one solve with every feature class
 
   // --- initialization (paper Sec. III-B) ---

@@ -69,6 +69,7 @@ bool ProblemBuilder::solve(const SolveSpec& spec, const SolveBudget& budget, boo
   opt.max_time_s = budget.time_s;
   opt.function_tolerance = options_.function_tolerance;
   opt.predicted_stop_share = options_.predicted_stop_share;
+  opt.reuse_gauss_newton_matrix = options_.reuse_gauss_newton_matrix;
   solver::SolverSummary summary;
   const solver::SolverStatus st = problem_->solve(opt, &summary);
   ++stats_->solves;

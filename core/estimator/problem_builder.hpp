@@ -45,6 +45,7 @@ struct ProblemBuilderOptions {
   double gyro_scale_sigma = 0.01;    // prior around zero (1 %)
   double function_tolerance = 1e-3;
   double predicted_stop_share = 0.5;
+  bool reuse_gauss_newton_matrix = true;  // SolverOptions::reuse_gauss_newton_matrix
   SelectionPolicy selection;
   double still_sigma_m = 0.002, still_sigma_rad = 0.001, still_sigma_v = 0.01;
   // Fewer of a relocation's landmarks in the solve than this and the loop keyframe's pose is

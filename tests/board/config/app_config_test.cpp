@@ -219,7 +219,7 @@ TEST_CASE("the back end's weights are keys of their own", "[config]") {
       dir, std::string(kVinsConfig) +
                "imu_noise_scale: 3.5\nimu_walk_scale: 8\nmax_landmarks_in_solve: 200\nbeta_3d: 1.5\nbeta_2d: 0.5\nmin_stereo_disparity: 2\n"
                "landmark_spread_px: 80\nstage_min_2d_left: 0\nfeature_sigma_px: 2\nhuber_px: 1\noutlier_px: 4\n"
-               "max_speed_m_s: 35\nmax_steps_per_solve: 1\n");
+               "max_speed_m_s: 35\nmax_steps_per_solve: 2\nmax_steps_at_keyframes: 1\nreuse_gauss_newton_matrix: 0\n");
   std::vector<std::string> warnings;
   const ums::AppConfig c = ums::load_config(path, micro_calibration(), &warnings);
   CHECK(warnings.empty());
@@ -235,7 +235,9 @@ TEST_CASE("the back end's weights are keys of their own", "[config]") {
   CHECK(c.huber_px == 1.0);
   CHECK(c.outlier_px == 4.0);
   CHECK(c.max_speed_m_s == 35.0);
-  CHECK(c.max_steps_per_solve == 1);
+  CHECK(c.max_steps_per_solve == 2);
+  CHECK(c.max_steps_at_keyframes);
+  CHECK_FALSE(c.reuse_gauss_newton_matrix);
   // Without the keys: the defaults (docs/results.md, "Weights", has the measurements behind them).
   const ums::AppConfig d = ums::load_config(write_vins_config(ums::test::make_temp_dir("config_weights_default"),
                                                               kVinsConfig),
@@ -243,8 +245,14 @@ TEST_CASE("the back end's weights are keys of their own", "[config]") {
   CHECK(d.max_landmarks_in_solve == 150);
   CHECK(d.stage_min_2d_left == 10);
   CHECK(d.landmark_spread_px == 0.0);
-  CHECK(d.max_steps_per_solve == 0);  // solves run until converged
+  // One step per solve but at keyframes, whose solves run until converged; the second
+  // linearization a gradient pass (docs/performance.md, session 28).
+  CHECK(d.max_steps_per_solve == 1);
   CHECK(d.max_steps_per_solve == ums::EstimatorOptions{}.max_steps_stage);
+  CHECK_FALSE(d.max_steps_at_keyframes);
+  CHECK(d.max_steps_at_keyframes == ums::EstimatorOptions{}.max_steps_at_keyframes);
+  CHECK(d.reuse_gauss_newton_matrix);
+  CHECK(d.reuse_gauss_newton_matrix == ums::EstimatorOptions{}.reuse_gauss_newton_matrix);
   // The speed guard's default is the estimator's (20 m/s = 72 km/h), far above a car at 15-25 km/h
   // (6.9 m/s, the simulator's car scenarios) or a drone.
   CHECK(d.max_speed_m_s == ums::EstimatorOptions{}.max_speed_m_s);
@@ -311,6 +319,10 @@ TEST_CASE("each invalid value stops with file, key, value and the allowed range"
        "key 'max_steps_per_solve': value -1, allowed 0..2"},
       {"max_num_iterations: 8", "max_num_iterations: 8\nmax_steps_per_solve: 3",
        "key 'max_steps_per_solve': value 3, allowed 0..2"},
+      {"max_num_iterations: 8", "max_num_iterations: 8\nmax_steps_at_keyframes: 2",
+       "key 'max_steps_at_keyframes': value 2, allowed 0..1 (0: keyframe solves run until converged)"},
+      {"max_num_iterations: 8", "max_num_iterations: 8\nreuse_gauss_newton_matrix: 0.5",
+       "key 'reuse_gauss_newton_matrix': value 0.5, allowed 0..1"},
       {"estimate_extrinsic: 1", "estimate_extrinsic: 2",
        "key 'estimate_extrinsic': value 2, allowed 0..1 (2, calibration from scratch, is not supported)"},
       {"estimate_td: 0", "estimate_td: 3", "key 'estimate_td': value 3, allowed 0..1"},

@@ -267,6 +267,7 @@ FeatureFlightResult fly_features(const FeatureFlightOptions& o) {
     track.vio.push_back(out.mode == EstimatorMode::kVio);
   }
   score(track, &res);
+  res.stats = est->stats();
   return res;
 }
 

@@ -53,6 +53,7 @@ struct FeatureFlightResult {
   std::vector<EstimatorMode> frame_mode;
   std::vector<bool> frame_finite;
   std::vector<std::uint32_t> frame_reset_counter;
+  EstimatorStats stats;  // the estimator's counters at the end
 };
 
 // Flies o.trajectory through the estimator at the camera rate of the EuRoC preset.

@@ -125,17 +125,52 @@ TEST_CASE("feature flight: IMU holes of 0.5 s and 2 s keep VIO within 2x of the 
 
 // max_steps_stage 1 (config max_steps_per_solve): each first-round solve ends after its first
 // accepted step, without the linearization that most often only finds the next step too small;
-// the next frame's solve continues from there. 0.3 px and the IMU's noise, 20 s of V102.
+// the next frame's solve continues from there. The default exempts keyframes. 0.3 px and the
+// IMU's noise, 20 s of V102.
 TEST_CASE("feature flight: one accepted step per solve stays within 15 % of solves run to convergence", "[estimator][features]") {
   ums::test::FeatureFlightOptions o = noisy_flight("V102", 20.0);
+  o.estimator.max_steps_stage = 0;
+  o.estimator.reuse_gauss_newton_matrix = false;
   const ums::test::FeatureFlightResult full = ums::test::fly_features(o);
   print("V102 until converged", full);
   o.estimator.max_steps_stage = 1;
+  o.estimator.max_steps_at_keyframes = true;
   const ums::test::FeatureFlightResult one = ums::test::fly_features(o);
   print("V102 one step per solve", one);
   check_vio_after(one, 5.0);
   CHECK(one.ate_m <= 1.15 * full.ate_m);
   CHECK(one.ate_m != full.ate_m);  // the budget took effect
+  // Keyframes exempt: their solves end in the linearization the marginalization reuses, so the
+  // prior holds converged states and the solve's own terms (none marginalized afresh).
+  // (Without the budget 234 of 242 reuse them; the others are VO's and the fallback's.)
+  const auto reused_share = [](const ums::test::FeatureFlightResult& r) {
+    return static_cast<double>(r.stats.marginalizations_reused) / static_cast<double>(r.stats.marginalized_old);
+  };
+  CHECK(reused_share(full) > 0.95);
+  CHECK(reused_share(one) < 0.5);
+  o.estimator.max_steps_at_keyframes = false;
+  const ums::test::FeatureFlightResult exempt = ums::test::fly_features(o);
+  print("V102 one step, keyframes converged", exempt);
+  check_vio_after(exempt, 5.0);
+  CHECK(reused_share(exempt) > 0.95);
+  CHECK(exempt.ate_m <= 1.05 * full.ate_m);
+}
+
+// The second linearization of a solve forms only the gradient (reuse_gauss_newton_matrix): the
+// solves still stop where the true gradient vanishes, and the marginalization takes the kept terms
+// (the first linearization's information, the gradient of the second).
+TEST_CASE("feature flight: the solves' second linearization as a gradient pass stays within 5 % of whole ones", "[estimator][features]") {
+  ums::test::FeatureFlightOptions o = noisy_flight("V102", 20.0);
+  o.estimator.max_steps_stage = 0;
+  o.estimator.reuse_gauss_newton_matrix = false;
+  const ums::test::FeatureFlightResult full = ums::test::fly_features(o);
+  o.estimator.reuse_gauss_newton_matrix = true;
+  const ums::test::FeatureFlightResult reuse = ums::test::fly_features(o);
+  print("V102 gradient pass", reuse);
+  check_vio_after(reuse, 5.0);
+  CHECK(reuse.ate_m <= 1.05 * full.ate_m);
+  CHECK(reuse.ate_m != full.ate_m);  // it took effect
+  CHECK(reuse.stats.marginalizations_reused >= reuse.stats.marginalized_old * 95 / 100);
 }
 
 // 0.3 px of bearing noise, vision only, 60 s. Rehosting a landmark on its new host's measured ray
