@@ -258,6 +258,7 @@ class Problem {
   bool iterate(LmState& s);
   bool can_continue(LmState& s);
   bool reject_invalid_step(LmState& s);
+  bool refresh_matrix(LmState& s);
   double apply_candidate();
   void restore_values();
   bool predicted_converged(LmState& s, double model_change);

@@ -54,6 +54,7 @@ struct Problem::LmState {
   double decrease_factor = 2.0;
   double x_norm = -1.0;  // as Ceres: unknown until the first accepted step
   bool step_successful = true;
+  bool stale_matrix = false;  // H is not the iterate's own (a gradient pass formed b only)
   int invalid_steps = 0;
   int iteration = 0;
 };
@@ -115,7 +116,7 @@ bool Problem::iterate(LmState& s) {
   s.step_successful = false;
   double mcc = 0.0;
   const bool valid = compute_step(s.lm ? 1.0 / s.radius : 0.0, &mcc) && (mcc > 0.0 || !s.lm);
-  if (!valid) return reject_invalid_step(s);
+  if (!valid) return s.stale_matrix ? refresh_matrix(s) : reject_invalid_step(s);
   s.invalid_steps = 0;
   if (predicted_converged(s, mcc)) return false;
 
@@ -130,7 +131,19 @@ bool Problem::iterate(LmState& s) {
                            : cand_cost < std::numeric_limits<double>::max();
   if (accept) return accept_step(s, cand_cost, relative_decrease);
   restore_values();
+  if (s.stale_matrix) return refresh_matrix(s);
   s.shrink();
+  return true;
+}
+
+// A step of the gradient pass's older matrix failed: that is the matrix's fault, not the trust
+// region's. The iterate is linearized whole and the step tried again with the same radius (a
+// solve from far away would otherwise shrink the region and crawl back over many steps).
+bool Problem::refresh_matrix(LmState& s) {
+  s.stale_matrix = false;
+  if (!linearize(true, &s.x_cost)) return s.end(SolverStatus::kNumericalFailure, Termination::kFailure, s.x_cost + s.fixed);
+  ++s.summary.linearizations;
+  s.grad_norm = gradient_max_norm();
   return true;
 }
 
@@ -249,6 +262,7 @@ bool Problem::accept_step(LmState& s, double cand_cost, double relative_decrease
   }
   ++s.summary.linearizations;
   if (gradient_only) ++s.summary.gradient_passes;
+  s.stale_matrix = gradient_only;
   s.grad_norm = gradient_max_norm();
   s.step_successful = true;
   ++s.summary.successful_steps;

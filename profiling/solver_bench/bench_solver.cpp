@@ -7,7 +7,7 @@
 // timed apart from the solve; medians over --runs solves. The LAST line printed is JSON.
 //
 //   umsvins_bench_solver [--runs N] [--landmarks N] [--frames N] [--seed N] [--max-iterations N]
-//                        [--fixed-extrinsic 1] [--ours-only 1] [--point-lifts 0]
+//                        [--fixed-extrinsic 1] [--ours-only 1] [--point-lifts 0] [--reuse-matrix 1]
 // --point-lifts 0: ours linearizes every reprojection with its own host and inverse-depth
 // Jacobians instead of through the landmark's point (solver/residual.hpp, PointLift).
 
@@ -265,6 +265,8 @@ int main(int argc, char** argv) {
   const int runs = std::max(1, arg_int(argc, argv, "--runs", 9));
   us::SolverOptions opt;  // Ceres' defaults
   opt.max_iterations = arg_int(argc, argv, "--max-iterations", 20);
+  // --reuse-matrix 1: ours with the estimator's gradient pass (not Ceres' algorithm step for step).
+  opt.reuse_gauss_newton_matrix = arg_int(argc, argv, "--reuse-matrix", 0) != 0;
 
   auto w = ums::bench::make_vio_window(cfg);
   int n_reproj = 0, n_stereo_host = 0, n_imu = 0;

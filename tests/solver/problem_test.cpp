@@ -1100,6 +1100,7 @@ TEST_CASE("Reusing the Gauss-Newton matrix: the solve stops where the true gradi
     CHECK(full.gradient_passes == 0);
     REQUIRE(reuse.successful_steps >= 2);
     CHECK(reuse.gradient_passes == 1);  // at the first accepted step, whole linearizations after it
+
     CHECK(reuse.final_cost < 0.5 * reuse.initial_cost);
     // The same minimum: a gradient formed with the first Jacobians (J_0^T r) would stop where
     // that one vanishes, a whole step away (metres and inverse metres, 1e-3 and more here).
@@ -1170,6 +1171,37 @@ TEST_CASE("Reusing the Gauss-Newton matrix: the gradient pass through point lift
   }
   CHECK(d_lift < 1e-10);
   CHECK(d_whole > 1e-8);
+}
+
+
+TEST_CASE("Reusing the Gauss-Newton matrix: a step of the older matrix that fails is retried with the iterate's own",
+          "[solver][problem]") {
+  // r = 10 (x^3 - 1) from x0 = 0.8: the first step lands at 1.054, where the slope is 1.7 times
+  // the first; the older matrix's step overshoots back to 0.90 and raises the cost. The iterate is
+  // then linearized whole and the step retried at the same radius: one attempt and one
+  // linearization more than Gauss-Newton, the same minimum. Shrinking the radius instead would
+  // have taken an attempt per halving from 1e16.
+  auto run = [](bool reuse, SolverSummary* sum) {
+    auto problem = std::make_unique<Problem>();
+    const CubeResidual f;
+    double x = 0.8;
+    BlockId id = 0;
+    REQUIRE(problem->add_euclidean_block(&x, 1, &id) == SolverStatus::kOk);
+    REQUIRE(problem->add_residual(&f, RobustLoss::trivial(), {id}) == SolverStatus::kOk);
+    SolverOptions opt;
+    opt.initial_trust_region_radius = 1e16;
+    opt.reuse_gauss_newton_matrix = reuse;
+    REQUIRE(usable(problem->solve(opt, sum)));
+    return x;
+  };
+  SolverSummary full, reuse;
+  const double x_full = run(false, &full), x_reuse = run(true, &reuse);
+  INFO("Gauss-Newton " << full.iterations << " attempts, reused matrix " << reuse.iterations);
+  CHECK(reuse.gradient_passes == 1);
+  CHECK(reuse.iterations == full.iterations + 1);
+  CHECK(reuse.linearizations == full.linearizations + 1);
+  CHECK(std::abs(x_reuse - 1.0) < 1e-6);
+  CHECK(std::abs(x_reuse - x_full) < 1e-6);
 }
 
 }  // namespace ums::solver
