@@ -119,12 +119,13 @@ class Problem {
   // marginalized block carries no information at all.
   SolverStatus marginalize(const BlockId* ids, int n, MarginalPrior* out);
   // The blocks marginalize() will probably be given after the coming solve (the same list, any
-  // order). Every full linearization then sums the terms of the listed landmarks' residuals
+  // order). Every linearization then sums the terms of the listed landmarks' residuals
   // apart before adding them to H, and marginalize() with exactly those landmarks takes them
   // instead of evaluating the residuals again, when the problem and every block's value (constant
   // ones too, bit for bit) are those of the last linearization; otherwise it linearizes as
   // without a hint. The prior agrees with the unhinted one to rounding (docs/solver.md,
-  // "Marginalization"). As for solved_residuals_current(), the residual objects' own state must
+  // "Marginalization"), unless the last linearization was a gradient pass
+  // (reuse_gauss_newton_matrix): then its information is that of the whole one before. As for solved_residuals_current(), the residual objects' own state must
   // not change in between. Kept until clear(); n = 0 removes it.
   SolverStatus set_marginalization_hint(const BlockId* ids, int n);
   // The caller moved pose blocks ids[0..n) together since the last linearization, by one rigid
@@ -144,6 +145,11 @@ class Problem {
   // variable non-eliminated block in the reduced system, or -1.
   int reduced_offset(BlockId id) const { return blocks_[id].eliminate ? -1 : blocks_[id].index; }
   int reduced_dim() const { return n_red_; }
+  // The gradient J^T r of the solve's last linearization (whole or gradient pass), for tests: the
+  // reduced rows' (reduced_dim() values) and, per landmark slot, its (up to 3) values.
+  double reduced_gradient(int row) const { return b_[row]; }
+  int num_landmark_slots() const { return num_lm_; }
+  double landmark_gradient(int slot, int k) const { return gl_[slot][k]; }
 
  private:
   struct Block {
@@ -241,7 +247,7 @@ class Problem {
   bool hinted_landmark(int l) const { return hint_[lm_block_[l]] && !blocks_[lm_block_[l]].constant; }
   // H_ += Hsep_, b_ += bsep_ over the rows landmarks couple to (upper triangle).
   void add_separated();
-  void note_separated_linearization();  // lin_x_, sep_valid_ (after a full linearization)
+  void note_separated_linearization();  // lin_x_, sep_valid_ (after a linearization, whole or gradient)
   // Cost (and, with jacobians, H_, b_, landmark blocks) at the current values; false if not finite.
   // The residuals' values go to kept_[kept_write_] when kept_write_ >= 0.
   bool linearize(bool jacobians, double* cost);

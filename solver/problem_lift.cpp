@@ -23,7 +23,7 @@ constexpr int kG = 7;  // columns of G: the 6-dof host, the 1-dof landmark
 void Problem::begin_lift(int l) {
   std::fill(lift_s_, lift_s_ + 3, 0.0);
   lift_host_slot_ = -1;
-  if (gradient_pass_) return;  // s alone: S and X stay the last whole linearization's
+  if (gradient_pass_) return;  // s alone: S and X are not read (zeroed by the next whole pass)
   std::fill(lift_S_, lift_S_ + 9, 0.0);
   const int n = lm_cpl_begin_[l + 1] - lm_cpl_begin_[l];
   for (int i = 0; i < n; ++i) {

@@ -125,8 +125,9 @@ SolverStatus Problem::accumulate_marginalized(bool kept) {
   return SolverStatus::kOk;
 }
 
-// The last full linearization's terms fit this marginalization: it kept the marginalized
-// landmarks, exactly those, apart, at the blocks' present values.
+// The last linearization's terms fit this marginalization: it kept the marginalized landmarks,
+// exactly those, apart, at the blocks' present values (after a gradient pass: their gradients
+// there, their matrices from the whole linearization before it).
 bool Problem::separated_current() const {
   if (!sep_valid_) return false;
   for (int l = 0; l < num_lm_; ++l)
@@ -226,7 +227,7 @@ void Problem::rotate_separated(const BlockId* ids, int n, const Eigen::Matrix3d&
 }
 
 // As linearize_marginalized(), with the marginalized landmarks' terms (Hsep_, bsep_, and their
-// H_ll, g_l, V, which the steps only read) taken from the last full linearization: the other
+// H_ll, g_l, V, which the steps only read) taken from the last linearization: the other
 // residuals and priors touching marginalized blocks are linearized, then the landmarks eliminated.
 SolverStatus Problem::reuse_marginalized() {
   if (callback_ != nullptr) callback_->prepare_for_evaluation();

@@ -159,7 +159,7 @@ TEST_CASE("feature flight: one accepted step per solve stays within 15 % of solv
 // The second linearization of a solve forms only the gradient (reuse_gauss_newton_matrix): the
 // solves still stop where the true gradient vanishes, and the marginalization takes the kept terms
 // (the first linearization's information, the gradient of the second).
-TEST_CASE("feature flight: the solves' second linearization as a gradient pass stays within 5 % of whole ones", "[estimator][features]") {
+TEST_CASE("feature flight: the solves' second linearization as a gradient pass, and the defaults, stay within 5 % of whole ones", "[estimator][features]") {
   ums::test::FeatureFlightOptions o = noisy_flight("V102", 20.0);
   o.estimator.max_steps_stage = 0;
   o.estimator.reuse_gauss_newton_matrix = false;
@@ -171,6 +171,12 @@ TEST_CASE("feature flight: the solves' second linearization as a gradient pass s
   CHECK(reuse.ate_m <= 1.05 * full.ate_m);
   CHECK(reuse.ate_m != full.ate_m);  // it took effect
   CHECK(reuse.stats.marginalizations_reused >= reuse.stats.marginalized_old * 95 / 100);
+  // The shipped defaults: one step at frames that are not keyframes, the gradient pass in the rest.
+  const ums::test::FeatureFlightResult shipped = ums::test::fly_features(noisy_flight("V102", 20.0));
+  print("V102 defaults", shipped);
+  check_vio_after(shipped, 5.0);
+  CHECK(shipped.ate_m <= 1.05 * full.ate_m);
+  CHECK(shipped.stats.marginalizations_reused >= shipped.stats.marginalized_old * 95 / 100);
 }
 
 // 0.3 px of bearing noise, vision only, 60 s. Rehosting a landmark on its new host's measured ray
