@@ -1112,23 +1112,34 @@ TEST_CASE("Reusing the Gauss-Newton matrix: the solve stops where the true gradi
 }
 
 
+
+namespace {
+
+// r = 10 (x^3 - 1) from x0, undamped in effect (radius 1e16, whatever opt says): the solution.
+double solve_cube(double x0, SolverOptions opt, SolverSummary* sum) {
+  auto problem = std::make_unique<Problem>();
+  const CubeResidual f;
+  double x = x0;
+  BlockId id = 0;
+  REQUIRE(problem->add_euclidean_block(&x, 1, &id) == SolverStatus::kOk);
+  REQUIRE(problem->add_residual(&f, RobustLoss::trivial(), {id}) == SolverStatus::kOk);
+  opt.initial_trust_region_radius = 1e16;
+  REQUIRE(usable(problem->solve(opt, sum)));
+  return x;
+}
+
+}  // namespace
+
 TEST_CASE("Reusing the Gauss-Newton matrix: the second step is the first matrix's step on the new gradient",
           "[solver][problem]") {
   // r = 10 (x^3 - 1), J = 30 x^2, from x0 = 0.95 with a radius so large that the damping is below
   // rounding: x1 = x0 - r0 / J0 (Gauss-Newton), then x2 = x1 - J1 r1 / J0^2 (gradient at x1, matrix
   // at x0). A gradient formed with J0 would give x1 - r1 / J0, Gauss-Newton x1 - r1 / J1.
-  auto problem = std::make_unique<Problem>();
-  const CubeResidual f;
-  double x = 0.95;
-  BlockId id = 0;
-  REQUIRE(problem->add_euclidean_block(&x, 1, &id) == SolverStatus::kOk);
-  REQUIRE(problem->add_residual(&f, RobustLoss::trivial(), {id}) == SolverStatus::kOk);
   SolverOptions opt;
-  opt.initial_trust_region_radius = 1e16;
   opt.max_successful_steps = 2;
   opt.reuse_gauss_newton_matrix = true;
   SolverSummary sum;
-  REQUIRE(usable(problem->solve(opt, &sum)));
+  const double x = solve_cube(0.95, opt, &sum);
   REQUIRE(sum.successful_steps == 2);
   CHECK(sum.gradient_passes == 1);
   const double x0 = 0.95, r0 = 10.0 * (x0 * x0 * x0 - 1.0), J0 = 30.0 * x0 * x0;
@@ -1182,17 +1193,9 @@ TEST_CASE("Reusing the Gauss-Newton matrix: a step of the older matrix that fail
   // linearization more than Gauss-Newton, the same minimum. Shrinking the radius instead would
   // have taken an attempt per halving from 1e16.
   auto run = [](bool reuse, SolverSummary* sum) {
-    auto problem = std::make_unique<Problem>();
-    const CubeResidual f;
-    double x = 0.8;
-    BlockId id = 0;
-    REQUIRE(problem->add_euclidean_block(&x, 1, &id) == SolverStatus::kOk);
-    REQUIRE(problem->add_residual(&f, RobustLoss::trivial(), {id}) == SolverStatus::kOk);
     SolverOptions opt;
-    opt.initial_trust_region_radius = 1e16;
     opt.reuse_gauss_newton_matrix = reuse;
-    REQUIRE(usable(problem->solve(opt, sum)));
-    return x;
+    return solve_cube(0.8, opt, sum);
   };
   SolverSummary full, reuse;
   const double x_full = run(false, &full), x_reuse = run(true, &reuse);
