@@ -1115,15 +1115,34 @@ TEST_CASE("Reusing the Gauss-Newton matrix: the solve stops where the true gradi
 
 namespace {
 
-// The window a step away from its start: one solve of two attempts without the gradient pass, as
+// Windows a step away from their start: one solve of two attempts without the gradient pass, as
 // the estimator's window arrives warm at each frame. From a cold start the older matrix's step can
 // fail (the window differs between the host's and the targets' random draws), and the refresh
 // then hides the pass.
-void warm_up(Problem& problem) {
+// The noisy small window with or without point lifts, frame 0's blocks hinted or not, warm.
+struct WarmWindow {
+  std::unique_ptr<VioWindow> w;
+  std::unique_ptr<Problem> problem = std::make_unique<Problem>();
+};
+
+WarmWindow warm_window(bool lifts, bool hint) {
+  WindowConfig cfg = small_window(false, true);
+  cfg.point_lifts = lifts;
+  WarmWindow s;
+  s.w = bench::make_vio_window(cfg);
+  REQUIRE(bench::add_to_problem(*s.w, *s.problem) == SolverStatus::kOk);
+  if (hint) {
+    const int F = static_cast<int>(s.w->poses.size());
+    std::vector<BlockId> marg = {0, F};
+    for (std::size_t l = 0; l < s.w->host.size(); ++l)
+      if (s.w->host[l] == 0) marg.push_back(2 * F + 1 + static_cast<int>(l));
+    REQUIRE(s.problem->set_marginalization_hint(marg.data(), static_cast<int>(marg.size())) == SolverStatus::kOk);
+  }
   SolverOptions warm;
   warm.max_iterations = 2;
   SolverSummary sum;
-  REQUIRE(usable(problem.solve(warm, &sum)));
+  REQUIRE(usable(s.problem->solve(warm, &sum)));
+  return s;
 }
 
 // r = 10 (x^3 - 1) from x0, undamped in effect (radius 1e16, whatever opt says): the solution.
@@ -1167,12 +1186,9 @@ TEST_CASE("Reusing the Gauss-Newton matrix: the gradient pass through point lift
   // (problem_lift.cpp, finish_lift_gradient) the same step to rounding; the whole linearization's
   // second step differs from both (another matrix).
   auto run = [](bool lifts, bool reuse) {
-    WindowConfig cfg = small_window(false, true);
-    cfg.point_lifts = lifts;
-    auto w = bench::make_vio_window(cfg);
-    auto problem = std::make_unique<Problem>();
-    REQUIRE(bench::add_to_problem(*w, *problem) == SolverStatus::kOk);
-    warm_up(*problem);
+    WarmWindow s = warm_window(lifts, false);
+    const auto& w = s.w;
+    const auto& problem = s.problem;
     SolverOptions opt;
     opt.max_successful_steps = 2;
     opt.reuse_gauss_newton_matrix = reuse;
@@ -1231,19 +1247,8 @@ TEST_CASE("Reusing the Gauss-Newton matrix: the gradient pass forms the whole li
   for (const bool hint : {false, true}) {
     INFO("point lifts " << lifts << ", hint " << hint);
     auto run = [&](bool reuse, std::vector<double>* g) {
-      WindowConfig cfg = small_window(false, true);
-      cfg.point_lifts = lifts;
-      auto w = bench::make_vio_window(cfg);
-      auto problem = std::make_unique<Problem>();
-      REQUIRE(bench::add_to_problem(*w, *problem) == SolverStatus::kOk);
-      if (hint) {
-        const int F = static_cast<int>(w->poses.size());
-        std::vector<BlockId> marg = {0, F};
-        for (std::size_t l = 0; l < w->host.size(); ++l)
-          if (w->host[l] == 0) marg.push_back(2 * F + 1 + static_cast<int>(l));
-        REQUIRE(problem->set_marginalization_hint(marg.data(), static_cast<int>(marg.size())) == SolverStatus::kOk);
-      }
-      warm_up(*problem);
+      WarmWindow s = warm_window(lifts, hint);
+      const auto& problem = s.problem;
       SolverOptions opt;
       opt.max_iterations = 2;
       opt.reuse_gauss_newton_matrix = reuse;
