@@ -125,7 +125,8 @@ class Problem {
   // ones too, bit for bit) are those of the last linearization; otherwise it linearizes as
   // without a hint. The prior agrees with the unhinted one to rounding (docs/solver.md,
   // "Marginalization"), unless the last linearization was a gradient pass
-  // (reuse_gauss_newton_matrix): then its information is that of the whole one before. As for solved_residuals_current(), the residual objects' own state must
+  // (reuse_gauss_newton_matrix): then its information is that of the whole one before. As for
+  // solved_residuals_current(), the residual objects' own state must
   // not change in between. Kept until clear(); n = 0 removes it.
   SolverStatus set_marginalization_hint(const BlockId* ids, int n);
   // The caller moved pose blocks ids[0..n) together since the last linearization, by one rigid

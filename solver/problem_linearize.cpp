@@ -178,17 +178,9 @@ void Problem::accumulate_gradient(const Residual& rb, const double* r) {
     }
     return;
   }
+  // Lifted residuals are all fast2 (assign_lifts): none reaches this general path.
   for (int a = 0; a < rb.num_blocks; ++a) {
     const double* J = jac_ws_[a];
-    if (a == rb.lift_pos) {  // A = d r / d p, rows x 3
-      for (int k = 0; k < 3; ++k) {
-        double s = 0.0;
-        for (int i = 0; i < rows; ++i) s += J[3 * i + k] * r[i];
-        lift_s_[k] += s;
-      }
-      lift_host_slot_ = rb.slot[a];
-      continue;
-    }
     if (!jac_wanted_[a]) continue;
     const Block& ba = blocks_[rb.blocks[a]];
     if (!ba.eliminate) {

@@ -141,7 +141,8 @@ bool Problem::iterate(LmState& s) {
 // solve from far away would otherwise shrink the region and crawl back over many steps).
 bool Problem::refresh_matrix(LmState& s) {
   s.stale_matrix = false;
-  if (!linearize(true, &s.x_cost)) return s.end(SolverStatus::kNumericalFailure, Termination::kFailure, s.x_cost + s.fixed);
+  if (!linearize(true, &s.x_cost))
+    return s.end(SolverStatus::kNumericalFailure, Termination::kFailure, s.x_cost + s.fixed);
   ++s.summary.linearizations;
   s.grad_norm = gradient_max_norm();
   return true;

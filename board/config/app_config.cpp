@@ -52,7 +52,7 @@ const NumericKey kNumericKeys[] = {
      " (0: until converged; a first-round solve makes at most 3 attempts)",
      [](const AppConfig& c) { return double(c.max_steps_per_solve); },
      [](AppConfig& c, double v) { c.max_steps_per_solve = static_cast<int>(v); }},
-    {"reuse_gauss_newton_matrix", "reuse_gauss_newton_matrix", 0, 1, true, "", " (1: after a step only the gradient is formed again)",
+    {"reuse_gauss_newton_matrix", "reuse_gauss_newton_matrix", 0, 1, true, "", " (1: at a solve's first step only the gradient is formed again)",
      [](const AppConfig& c) { return c.reuse_gauss_newton_matrix ? 1.0 : 0.0; },
      [](AppConfig& c, double v) { c.reuse_gauss_newton_matrix = v != 0.0; }},
     {"max_steps_at_keyframes", "max_steps_at_keyframes", 0, 1, true, "", " (0: keyframe solves run until converged)",
