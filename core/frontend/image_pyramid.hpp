@@ -33,7 +33,8 @@ class ImagePyramid {
   int levels_ = 0;
   std::uint64_t generation_ = 0;
   std::vector<std::uint8_t> storage_;          // all levels, packed rows
-  std::vector<std::uint16_t> row_tmp_;         // horizontal pass of one output row (x5 rows)
+  static constexpr int kRowPad = 16;           // elements the vector horizontal pass may read past a row
+  std::vector<std::uint16_t> row_tmp_;         // vertical pass of one output row (x5 rows), then kRowPad
   ImageView views_[capacity::kMaxPyramidLevels];
 };
 
