@@ -33,8 +33,7 @@ class ImagePyramid {
   int levels_ = 0;
   std::uint64_t generation_ = 0;
   std::vector<std::uint8_t> storage_;          // all levels, packed rows
-  static constexpr int kRowPad = 16;           // elements the vector horizontal pass may read past a row
-  std::vector<std::uint16_t> row_tmp_;         // vertical pass of one output row (x5 rows), then kRowPad
+  std::vector<std::uint16_t> row_tmp_;         // horizontal pass of one output row (x5 rows)
   ImageView views_[capacity::kMaxPyramidLevels];
 };
 
