@@ -382,8 +382,9 @@ void CornerDetector::offer(const Candidate& c) {
 
 // Row y's candidates: free, at or above thresh and a 3x3 maximum, ties going to the first pixel
 // in scan order; they enter the heap in scan order. Most of the image is covered by the disks
-// around the features already tracked: only the column groups mark_needed_groups found a free
-// pixel in (scratch_) are visited, 4 pixels at once (maxima4) and the free ones among those passing.
+// around the features already tracked: only the runs of column groups mark_needed_groups found a
+// free pixel in (scratch_) are visited, 4 pixels at once (maxima4) and the free ones among those
+// passing; a run's last pixels one by one.
 void CornerDetector::offer_row_maxima(int y, int b, float thresh) {
   const int w = width_;
   const float* rm = response_.data() + static_cast<std::size_t>(y - 1) * static_cast<std::size_t>(w);
@@ -391,27 +392,23 @@ void CornerDetector::offer_row_maxima(int y, int b, float thresh) {
   const float* rp = r0 + w;
   const std::uint8_t* m = mask_.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(w);
   const std::uint64_t* groups = scratch_.data() + static_cast<std::size_t>(y) * kGroupWords;
-  for (int wi = 0; wi < kGroupWords; ++wi) {
-    for (std::uint64_t bits = groups[wi]; bits != 0; bits &= bits - 1) {
-      const int g = wi * 64 + __builtin_ctzll(bits);
-      const int x1 = std::min(g * kGroupPx + kGroupPx, w - b);
-      int x = std::max(g * kGroupPx, b);
-      for (; x + 4 <= x1; x += 4) {  // reads up to r0[x + 4] <= r0[w - b + 3]: inside the row (b >= 3)
-        const unsigned free = free_lanes4(m + x);
-        if (free == 0) continue;
-        for (unsigned lanes = free & maxima4(rm + x, r0 + x, rp + x, thresh); lanes != 0; lanes &= lanes - 1) {
-          const int k = __builtin_ctz(lanes);
-          offer(Candidate{r0[x + k], x + k, y});
-        }
-      }
-      for (; x < x1; ++x) {
-        const float v = r0[x];
-        if (m[x] == 0 && v >= thresh && v > rm[x - 1] && v > rm[x] && v > rm[x + 1] && v > r0[x - 1] &&
-            v >= r0[x + 1] && v >= rp[x - 1] && v >= rp[x] && v >= rp[x + 1])
-          offer(Candidate{v, x, y});
+  for_each_run(groups, 0, b, w - b, [&](int x0, int x1) {
+    int x = x0;
+    for (; x + 4 <= x1; x += 4) {  // reads up to r0[x + 4] <= r0[w - b + 3]: inside the row (b >= 3)
+      const unsigned free = free_lanes4(m + x);
+      if (free == 0) continue;
+      for (unsigned lanes = free & maxima4(rm + x, r0 + x, rp + x, thresh); lanes != 0; lanes &= lanes - 1) {
+        const int k = __builtin_ctz(lanes);
+        offer(Candidate{r0[x + k], x + k, y});
       }
     }
-  }
+    for (; x < x1; ++x) {
+      const float v = r0[x];
+      if (m[x] == 0 && v >= thresh && v > rm[x - 1] && v > rm[x] && v > rm[x + 1] && v > r0[x - 1] &&
+          v >= r0[x + 1] && v >= rp[x - 1] && v >= rp[x] && v >= rp[x + 1])
+        offer(Candidate{v, x, y});
+    }
+  });
 }
 
 int CornerDetector::detect(const ImageView& image, int max_new, const DetectorOptions& options, Eigen::Vector2f* out_px) {
