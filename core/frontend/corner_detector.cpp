@@ -228,12 +228,22 @@ inline unsigned free_lanes4(const std::uint8_t* p) {
 // Bit k set: the response r0[k] (rm: the row above, rp: below) is at or above thresh and a 3x3
 // maximum, ties going to the first pixel in scan order: the scalar test of each pixel, lane by
 // lane (a NaN fails it in both).
+// Responses are finite (sums of integers, then a root of a sum of squares), so v > each of
+// three values exactly when v > their maximum: one comparison per neighbour row.
+inline F4 max2(F4 a, F4 b) {
+#if defined(__SSE2__)
+  return _mm_max_ps(a, b);
+#elif defined(__ARM_NEON)
+  return vmaxq_f32(a, b);
+#else
+  return a > b ? a : b;
+#endif
+}
+inline F4 max3(const float* r) { return max2(max2(load_lanes(r - 1), load_lanes(r)), load_lanes(r + 1)); }
 inline unsigned maxima4(const float* rm, const float* r0, const float* rp, float thresh) {
   typedef int I4 __attribute__((vector_size(16)));
   const F4 v = load_lanes(r0);
-  const I4 ok = (v >= thresh) & (v > load_lanes(rm - 1)) & (v > load_lanes(rm)) & (v > load_lanes(rm + 1)) &
-                (v > load_lanes(r0 - 1)) & (v >= load_lanes(r0 + 1)) & (v >= load_lanes(rp - 1)) &
-                (v >= load_lanes(rp)) & (v >= load_lanes(rp + 1));
+  const I4 ok = (v >= thresh) & (v > max3(rm)) & (v > load_lanes(r0 - 1)) & (v >= load_lanes(r0 + 1)) & (v >= max3(rp));
 #if defined(__SSE2__)
   return static_cast<unsigned>(_mm_movemask_ps(reinterpret_cast<__m128>(ok)));
 #elif defined(__ARM_NEON) && defined(__aarch64__)
