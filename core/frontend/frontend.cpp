@@ -93,7 +93,7 @@ Frontend::Frontend(const FrontendOptions& options, const RigCalibration& calib) 
   // replay samples are at those levels (coarser ones come with the rarer 4-level tracks).
   constexpr int kCachedTemplateLevels = 2;
   templates_ = std::make_unique<KltTemplateCache>(2 * options_.max_cnt, std::min(levels, kCachedTemplateLevels),
-                                                  klt_template_floats(options_.klt.window_px));
+                                                  klt_template_units(options_.klt.window_px));
   detector_ = std::make_unique<CornerDetector>(std::max(cam_[0].width(), cam_[1].width()),
                                                std::max(cam_[0].height(), cam_[1].height()));
   if (cam_[0].width() != cam_[1].width() || cam_[0].height() != cam_[1].height()) {

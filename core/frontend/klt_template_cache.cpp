@@ -5,20 +5,20 @@
 
 namespace ums {
 
-KltTemplateCache::KltTemplateCache(int slots, int levels, int floats_per_level)
-    : slots_(slots), levels_(levels), floats_per_level_(floats_per_level) {
-  if (slots < 1 || levels < 1 || levels > 32 || floats_per_level < 1) {
+KltTemplateCache::KltTemplateCache(int slots, int levels, int units_per_level)
+    : slots_(slots), levels_(levels), units_per_level_(units_per_level) {
+  if (slots < 1 || levels < 1 || levels > 32 || units_per_level < 1) {
     throw std::invalid_argument("KltTemplateCache: slots " + std::to_string(slots) + ", levels " +
-                                std::to_string(levels) + ", floats per level " + std::to_string(floats_per_level) +
+                                std::to_string(levels) + ", units per level " + std::to_string(units_per_level) +
                                 " (each must be >= 1, levels <= 32)");
   }
   keys_.assign(static_cast<std::size_t>(slots), Key{});
   data_.assign(static_cast<std::size_t>(slots) * static_cast<std::size_t>(levels) *
-                   static_cast<std::size_t>(floats_per_level),
-               0.0f);
+                   static_cast<std::size_t>(units_per_level),
+               std::int16_t{0});
 }
 
-float* KltTemplateCache::block(int s, const ImagePyramid& pyramid, const Eigen::Vector2f& p, int level, bool* filled) {
+std::int16_t* KltTemplateCache::block(int s, const ImagePyramid& pyramid, const Eigen::Vector2f& p, int level, bool* filled) {
   *filled = false;
   if (s < 0 || s >= slots_ || level < 0 || level >= levels_) return nullptr;
   Key& k = keys_[static_cast<std::size_t>(s)];
@@ -28,7 +28,7 @@ float* KltTemplateCache::block(int s, const ImagePyramid& pyramid, const Eigen::
   }
   *filled = ((k.filled >> level) & 1u) != 0;
   return data_.data() + (static_cast<std::size_t>(s) * static_cast<std::size_t>(levels_) + static_cast<std::size_t>(level)) *
-                            static_cast<std::size_t>(floats_per_level_);
+                            static_cast<std::size_t>(units_per_level_);
 }
 
 }  // namespace ums

@@ -2,9 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 
 #include "core/frontend/float_lanes.hpp"
 
@@ -18,95 +20,185 @@ namespace ums {
 
 namespace {
 
-// Window sums in 4 lanes (one SSE or NEON register) with a fixed order: element k always lands in
-// lane k % 4 and the lanes are added 0..3, then the tail. Every machine then gives the same float
-// (Eigen's reductions split differently per architecture; issue 8's cross-architecture check).
-using Lanes = FloatLanes;
-constexpr int kLanes = kFloatLanes;
+// A window's samples are integers: 128 x grey levels (0 .. 32640), and a template gradient is
+// kept as the central difference of two samples (twice the gradient, -32640 .. 32640), so both
+// fit 16-bit lanes, 8 to a vector. The window sums are exact integer sums (a product of two is
+// below 2^30, a sum of two products below 2^31, a window's sum below 2^48): every order, lane
+// split and machine gives the same integers, then one rounding to float.
+using Px = std::int16_t;
+constexpr int kPxLanes = 8;
 
-inline float lane_sum(Lanes v) {
-  float s = 0.0f;
-  for (int i = 0; i < kLanes; ++i) s += v[i];
-  return s;
+// sum a[k] b[k] and sum a[k] over k < nn, exact.
+struct DotSums {
+  std::int64_t ab = 0;
+  std::int64_t a = 0;
+};
+
+#if defined(__ARM_NEON)
+inline int16x8_t load_px(const Px* p) { return vld1q_s16(p); }
+// acc += the products of a and b, widened (vpadal: pairwise add-accumulate long).
+inline int64x2_t add_products(int64x2_t acc, int16x8_t a, int16x8_t b) {
+  acc = vpadalq_s32(acc, vmull_s16(vget_low_s16(a), vget_low_s16(b)));
+  return vpadalq_s32(acc, vmull_s16(vget_high_s16(a), vget_high_s16(b)));
 }
+inline std::int64_t lanes_total(int64x2_t v) { return vgetq_lane_s64(v, 0) + vgetq_lane_s64(v, 1); }
+inline std::int64_t lanes_total(int32x4_t v) {
+  return static_cast<std::int64_t>(vgetq_lane_s32(v, 0)) + vgetq_lane_s32(v, 1) + vgetq_lane_s32(v, 2) + vgetq_lane_s32(v, 3);
+}
+#elif defined(__SSE2__)
+inline __m128i load_px(const Px* p) { return _mm_loadu_si128(reinterpret_cast<const __m128i*>(p)); }
+// acc (two 64-bit lanes) += the products of a and b: pmaddwd's four sums of two products, sign
+// extended.
+inline __m128i add_products(__m128i acc, __m128i a, __m128i b) {
+  const __m128i p = _mm_madd_epi16(a, b);
+  const __m128i sign = _mm_srai_epi32(p, 31);
+  acc = _mm_add_epi64(acc, _mm_unpacklo_epi32(p, sign));
+  return _mm_add_epi64(acc, _mm_unpackhi_epi32(p, sign));
+}
+inline std::int64_t total64(__m128i v) {
+  alignas(16) std::int64_t l[2];
+  _mm_store_si128(reinterpret_cast<__m128i*>(l), v);
+  return l[0] + l[1];
+}
+inline std::int64_t total32(__m128i v) {
+  alignas(16) std::int32_t l[4];
+  _mm_store_si128(reinterpret_cast<__m128i*>(l), v);
+  return static_cast<std::int64_t>(l[0]) + l[1] + l[2] + l[3];
+}
+#endif
 
-// Structure tensor of the template gradients and their plain sums.
+// Structure tensor of the template gradients and their plain sums, in (128 x grey/px)^2 and
+// 128 x grey/px (the arrays hold twice the gradients).
 struct GradientSums {
   float gxx = 0.0f, gxy = 0.0f, gyy = 0.0f, gx = 0.0f, gy = 0.0f;
 };
 
-GradientSums gradient_sums(const float* gx, const float* gy, int nn) {
-  Lanes sxx{}, sxy{}, syy{}, sx{}, sy{};
+GradientSums gradient_sums(const Px* gx, const Px* gy, int nn) {
+  std::int64_t sxx = 0, sxy = 0, syy = 0, sx = 0, sy = 0;
   int k = 0;
-#pragma GCC unroll 4
-  for (; k + kLanes <= nn; k += kLanes) {
-    const Lanes a = load_lanes(gx + k), b = load_lanes(gy + k);
-    sxx += a * a;
-    sxy += a * b;
-    syy += b * b;
-    sx += a;
-    sy += b;
+#if defined(__ARM_NEON)
+  int64x2_t axx = vdupq_n_s64(0), axy = axx, ayy = axx;
+  int32x4_t ax = vdupq_n_s32(0), ay = ax;
+  for (; k + kPxLanes <= nn; k += kPxLanes) {
+    const int16x8_t a = load_px(gx + k), b = load_px(gy + k);
+    axx = add_products(axx, a, a);
+    axy = add_products(axy, a, b);
+    ayy = add_products(ayy, b, b);
+    ax = vpadalq_s16(ax, a);
+    ay = vpadalq_s16(ay, b);
   }
-  GradientSums s{lane_sum(sxx), lane_sum(sxy), lane_sum(syy), lane_sum(sx), lane_sum(sy)};
+  sxx = lanes_total(axx), sxy = lanes_total(axy), syy = lanes_total(ayy), sx = lanes_total(ax), sy = lanes_total(ay);
+#elif defined(__SSE2__)
+  const __m128i ones = _mm_set1_epi16(1);
+  __m128i axx = _mm_setzero_si128(), axy = axx, ayy = axx, ax = axx, ay = axx;
+  for (; k + kPxLanes <= nn; k += kPxLanes) {
+    const __m128i a = load_px(gx + k), b = load_px(gy + k);
+    axx = add_products(axx, a, a);
+    axy = add_products(axy, a, b);
+    ayy = add_products(ayy, b, b);
+    ax = _mm_add_epi32(ax, _mm_madd_epi16(a, ones));
+    ay = _mm_add_epi32(ay, _mm_madd_epi16(b, ones));
+  }
+  sxx = total64(axx), sxy = total64(axy), syy = total64(ayy), sx = total32(ax), sy = total32(ay);
+#endif
   for (; k < nn; ++k) {
-    s.gxx += gx[k] * gx[k];
-    s.gxy += gx[k] * gy[k];
-    s.gyy += gy[k] * gy[k];
-    s.gx += gx[k];
-    s.gy += gy[k];
+    const std::int64_t a = gx[k], b = gy[k];
+    sxx += a * a, sxy += a * b, syy += b * b, sx += a, sy += b;
   }
-  return s;
+  return {static_cast<float>(0.25 * static_cast<double>(sxx)), static_cast<float>(0.25 * static_cast<double>(sxy)),
+          static_cast<float>(0.25 * static_cast<double>(syy)), static_cast<float>(0.5 * static_cast<double>(sx)),
+          static_cast<float>(0.5 * static_cast<double>(sy))};
 }
 
-// sum d, sum d gx, sum d gy with d = T - W.
+// sum d, sum d gx, sum d gy with d = T - W (|d| <= 32640) and g the gradient (half the arrays').
 struct ErrorSums {
   float d = 0.0f, dgx = 0.0f, dgy = 0.0f;
 };
 
-ErrorSums error_sums(const float* t, const float* w, const float* gx, const float* gy, int nn) {
-  Lanes sd{}, sdx{}, sdy{};
+ErrorSums error_sums(const Px* t, const Px* w, const Px* gx, const Px* gy, int nn) {
+  std::int64_t sd = 0, sdx = 0, sdy = 0;
   int k = 0;
-  // Unrolled (the same sums in the same order): the loop's own add, compare and branch were a
-  // quarter of the instructions of a 4-lane step.
-#pragma GCC unroll 4
-  for (; k + kLanes <= nn; k += kLanes) {
-    const Lanes d = load_lanes(t + k) - load_lanes(w + k);
-    sd += d;
-    sdx += d * load_lanes(gx + k);
-    sdy += d * load_lanes(gy + k);
+#if defined(__ARM_NEON)
+  int64x2_t adx = vdupq_n_s64(0), ady = adx;
+  int32x4_t ad = vdupq_n_s32(0);
+  for (; k + kPxLanes <= nn; k += kPxLanes) {
+    const int16x8_t d = vsubq_s16(load_px(t + k), load_px(w + k));
+    ad = vpadalq_s16(ad, d);
+    adx = add_products(adx, d, load_px(gx + k));
+    ady = add_products(ady, d, load_px(gy + k));
   }
-  ErrorSums s{lane_sum(sd), lane_sum(sdx), lane_sum(sdy)};
+  sd = lanes_total(ad), sdx = lanes_total(adx), sdy = lanes_total(ady);
+#elif defined(__SSE2__)
+  const __m128i ones = _mm_set1_epi16(1);
+  __m128i adx = _mm_setzero_si128(), ady = adx, ad = adx;
+  for (; k + kPxLanes <= nn; k += kPxLanes) {
+    const __m128i d = _mm_sub_epi16(load_px(t + k), load_px(w + k));
+    ad = _mm_add_epi32(ad, _mm_madd_epi16(d, ones));
+    adx = add_products(adx, d, load_px(gx + k));
+    ady = add_products(ady, d, load_px(gy + k));
+  }
+  sd = total32(ad), sdx = total64(adx), sdy = total64(ady);
+#endif
   for (; k < nn; ++k) {
-    const float d = t[k] - w[k];
-    s.d += d;
-    s.dgx += d * gx[k];
-    s.dgy += d * gy[k];
+    const std::int64_t d = t[k] - w[k];
+    sd += d, sdx += d * gx[k], sdy += d * gy[k];
   }
-  return s;
+  return {static_cast<float>(sd), static_cast<float>(0.5 * static_cast<double>(sdx)),
+          static_cast<float>(0.5 * static_cast<double>(sdy))};
 }
 
-// Mean |T - W - offset| with the offset the mean of T - W.
-float mean_abs_error(const float* t, const float* w, int nn) {
-  Lanes sd{};
-  int k = 0;
-#pragma GCC unroll 4
-  for (; k + kLanes <= nn; k += kLanes) sd += load_lanes(t + k) - load_lanes(w + k);
-  float sum_d = lane_sum(sd);
-  for (int j = k; j < nn; ++j) sum_d += t[j] - w[j];
-  const float inv_area = 1.0f / static_cast<float>(nn);
-  const float mean_d = sum_d * inv_area;
-  const Lanes mean{mean_d, mean_d, mean_d, mean_d};
-  Lanes sa{};
-#pragma GCC unroll 4
-  for (k = 0; k + kLanes <= nn; k += kLanes) {
-    const Lanes e = load_lanes(t + k) - load_lanes(w + k) - mean;
-    sa += e < 0.0f ? -e : e;
+// T - W at 8 elements as two float lanes (exact: |T - W| <= 32640).
+inline void difference_lanes(const Px* t, const Px* w, FloatLanes* lo, FloatLanes* hi) {
+#if defined(__ARM_NEON)
+  const int16x8_t d = vsubq_s16(load_px(t), load_px(w));
+  *lo = vcvtq_f32_s32(vmovl_s16(vget_low_s16(d)));
+  *hi = vcvtq_f32_s32(vmovl_s16(vget_high_s16(d)));
+#elif defined(__SSE2__)
+  const __m128i d = _mm_sub_epi16(load_px(t), load_px(w));
+  *lo = _mm_cvtepi32_ps(_mm_srai_epi32(_mm_unpacklo_epi16(d, d), 16));
+  *hi = _mm_cvtepi32_ps(_mm_srai_epi32(_mm_unpackhi_epi16(d, d), 16));
+#else
+  for (int i = 0; i < 4; ++i) {
+    (*lo)[i] = static_cast<float>(t[i] - w[i]);
+    (*hi)[i] = static_cast<float>(t[i + 4] - w[i + 4]);
   }
-  float sum_abs = lane_sum(sa);
-  for (; k < nn; ++k) sum_abs += std::fabs(t[k] - w[k] - mean_d);
+#endif
+}
+
+// Mean |T - W - offset| with the offset the mean of T - W: the sum of T - W exact, the absolute
+// deviations in 4 float lanes with a fixed order (element k in lane k % 4, the lanes added 0..3).
+float mean_abs_error(const Px* t, const Px* w, int nn) {
+  std::int64_t sum_d = 0;
+  int j = 0;
+#if defined(__ARM_NEON)
+  int32x4_t ad = vdupq_n_s32(0);
+  for (; j + kPxLanes <= nn; j += kPxLanes) ad = vpadalq_s16(ad, vsubq_s16(load_px(t + j), load_px(w + j)));
+  sum_d = lanes_total(ad);
+#elif defined(__SSE2__)
+  __m128i ad = _mm_setzero_si128();
+  for (; j + kPxLanes <= nn; j += kPxLanes)
+    ad = _mm_add_epi32(ad, _mm_madd_epi16(_mm_sub_epi16(load_px(t + j), load_px(w + j)), _mm_set1_epi16(1)));
+  sum_d = total32(ad);
+#endif
+  for (; j < nn; ++j) sum_d += t[j] - w[j];
+  const float inv_area = 1.0f / static_cast<float>(nn);
+  const float mean_d = static_cast<float>(sum_d) * inv_area;
+  const FloatLanes mean{mean_d, mean_d, mean_d, mean_d};
+  FloatLanes sa{};
+  int k = 0;
+  for (; k + kPxLanes <= nn; k += kPxLanes) {
+    FloatLanes lo, hi;
+    difference_lanes(t + k, w + k, &lo, &hi);
+    lo -= mean;
+    hi -= mean;
+    sa += lo < 0.0f ? -lo : lo;
+    sa += hi < 0.0f ? -hi : hi;
+  }
+  float sum_abs = 0.0f;
+  for (int i = 0; i < kFloatLanes; ++i) sum_abs += sa[i];
+  for (; k < nn; ++k) sum_abs += std::fabs(static_cast<float>(t[k] - w[k]) - mean_d);
   return sum_abs * inv_area;
 }
-
 
 // Bilinear sampling in fixed point, as OpenCV's pyramidal LK (there with 14-bit weights): the
 // four weights are integers summing to 128, so a sample is an integer sum of pixel x weight
@@ -143,43 +235,39 @@ PatchOrigin patch_origin(float x, float y) {
   return {static_cast<int>(fx0), static_cast<int>(fy0), quantized_weights(x - fx0, y - fy0)};
 }
 
-// 8 integer sums of pixel x weight (below 2^15) out as floats: grey levels (kGrey), or the sums.
+// 8 integer sums of pixel x weight (below 2^15) out: as float grey levels, or the sums (Px).
 #if defined(__ARM_NEON)
-template <bool kGrey>
+inline void store_sums(uint16x8_t s, Px* out) { vst1q_s16(out, vreinterpretq_s16_u16(s)); }
 inline void store_sums(uint16x8_t s, float* out) {
   float32x4_t lo = vcvtq_f32_u32(vmovl_u16(vget_low_u16(s))), hi = vcvtq_f32_u32(vmovl_u16(vget_high_u16(s)));
-  if constexpr (kGrey) {
-    lo = vmulq_n_f32(lo, 1.0f / static_cast<float>(kWeightOne));
-    hi = vmulq_n_f32(hi, 1.0f / static_cast<float>(kWeightOne));
-  }
+  lo = vmulq_n_f32(lo, 1.0f / static_cast<float>(kWeightOne));
+  hi = vmulq_n_f32(hi, 1.0f / static_cast<float>(kWeightOne));
   vst1q_f32(out, lo);
   vst1q_f32(out + 4, hi);
 }
 #elif defined(__SSE2__)
-template <bool kGrey>
+inline void store_sums(__m128i s, Px* out) { _mm_storeu_si128(reinterpret_cast<__m128i*>(out), s); }
 inline void store_sums(__m128i s, float* out) {
   const __m128i zero = _mm_setzero_si128();
   __m128 lo = _mm_cvtepi32_ps(_mm_unpacklo_epi16(s, zero)), hi = _mm_cvtepi32_ps(_mm_unpackhi_epi16(s, zero));
-  if constexpr (kGrey) {
-    lo = _mm_mul_ps(lo, _mm_set1_ps(1.0f / static_cast<float>(kWeightOne)));
-    hi = _mm_mul_ps(hi, _mm_set1_ps(1.0f / static_cast<float>(kWeightOne)));
-  }
+  lo = _mm_mul_ps(lo, _mm_set1_ps(1.0f / static_cast<float>(kWeightOne)));
+  hi = _mm_mul_ps(hi, _mm_set1_ps(1.0f / static_cast<float>(kWeightOne)));
   _mm_storeu_ps(out, lo);
   _mm_storeu_ps(out + 4, hi);
 }
 #endif
 
-// 8 samples from two source rows (each read at i .. i + 8, 9 pixels) as floats: grey levels, or
-// (kGrey false) 128 times them, the integer sums themselves. The tracker works on the latter: a
-// power-of-two scale changes no rounding, so only its two thresholds are scaled to match.
-template <bool kGrey>
-inline void sample_chunk(const std::uint8_t* r0, const std::uint8_t* r1, const Weights& w, float* out) {
+// 8 samples from two source rows (each read at i .. i + 8, 9 pixels): float grey levels, or (Px)
+// 128 times them, the integer sums themselves. The tracker works on the latter: its thresholds
+// are scaled to match.
+template <class Out>
+inline void sample_chunk(const std::uint8_t* r0, const std::uint8_t* r1, const Weights& w, Out* out) {
 #if defined(__ARM_NEON)
   uint16x8_t s = vmull_u8(vld1_u8(r0), vdup_n_u8(static_cast<std::uint8_t>(w.w00)));
   s = vmlal_u8(s, vld1_u8(r0 + 1), vdup_n_u8(static_cast<std::uint8_t>(w.w01)));
   s = vmlal_u8(s, vld1_u8(r1), vdup_n_u8(static_cast<std::uint8_t>(w.w10)));
   s = vmlal_u8(s, vld1_u8(r1 + 1), vdup_n_u8(static_cast<std::uint8_t>(w.w11)));
-  store_sums<kGrey>(s, out);
+  store_sums(s, out);
 #elif defined(__SSE2__)
   const __m128i zero = _mm_setzero_si128();
   auto px = [zero](const std::uint8_t* p) {
@@ -190,12 +278,15 @@ inline void sample_chunk(const std::uint8_t* r0, const std::uint8_t* r1, const W
   s = _mm_add_epi16(s, _mm_mullo_epi16(px(r0 + 1), _mm_set1_epi16(static_cast<short>(w.w01))));
   s = _mm_add_epi16(s, _mm_mullo_epi16(px(r1), _mm_set1_epi16(static_cast<short>(w.w10))));
   s = _mm_add_epi16(s, _mm_mullo_epi16(px(r1 + 1), _mm_set1_epi16(static_cast<short>(w.w11))));
-  store_sums<kGrey>(s, out);
+  store_sums(s, out);
 #else
-  constexpr float kInv = kGrey ? 1.0f / static_cast<float>(kWeightOne) : 1.0f;
   for (int i = 0; i < kChunk; ++i) {
     const int v = w.w00 * r0[i] + w.w01 * r0[i + 1] + w.w10 * r1[i] + w.w11 * r1[i + 1];
-    out[i] = static_cast<float>(v) * kInv;
+    if constexpr (std::is_same_v<Out, float>) {
+      out[i] = static_cast<float>(v) * (1.0f / static_cast<float>(kWeightOne));
+    } else {
+      out[i] = static_cast<Out>(v);
+    }
   }
 #endif
 }
@@ -219,18 +310,17 @@ void clamped_row(const std::uint8_t* r, int w, int x0, int src, std::uint8_t* ou
   std::memset(out + hi, r[w - 1], static_cast<std::size_t>(src - hi));
 }
 
-// sample_patch_bilinear's contract (n checked by the caller; kGrey false: 128 times the grey
-// levels). The pixels are read in place when the columns under the patch (whole chunks + 1) lie
+// sample_patch_bilinear's contract (n checked by the caller; Px: 128 times the grey levels). The pixels are read in place when the columns under the patch (whole chunks + 1) lie
 // inside the image; a block that crosses the left or right edge is copied with the border pixels
 // repeated.
-template <bool kGrey>
-void sample_fixed(const ImageView& image, float x, float y, int n, float* out) {
+template <class Out>
+void sample_fixed(const ImageView& image, float x, float y, int n, Out* out) {
   const PatchOrigin origin = patch_origin(x, y);
   const int x0 = origin.x0, y0 = origin.y0;
   const Weights& w = origin.w;
   const int cols = (n + kChunk - 1) / kChunk * kChunk;
   const int src = cols + 1;
-  alignas(16) float scratch[kMaxSrcRow];
+  alignas(16) Out scratch[kMaxSrcRow];
   const bool inside = x0 >= 0 && x0 + src <= image.width;
   if (inside && y0 >= 0 && y0 + n < image.height) {
     // The common case, away from every edge: the source rows in place, walked by stride. Rows
@@ -241,10 +331,10 @@ void sample_fixed(const ImageView& image, float x, float y, int n, float* out) {
     const int direct = std::min(n, n * n >= cols ? (n * n - cols) / n + 1 : 0);
     int j = 0;
     for (; j < direct; ++j, r += stride)
-      for (int i = 0; i < cols; i += kChunk) sample_chunk<kGrey>(r + i, r + stride + i, w, out + j * n + i);
+      for (int i = 0; i < cols; i += kChunk) sample_chunk<Out>(r + i, r + stride + i, w, out + j * n + i);
     for (; j < n; ++j, r += stride) {
-      for (int i = 0; i < cols; i += kChunk) sample_chunk<kGrey>(r + i, r + stride + i, w, scratch + i);
-      std::memcpy(out + j * n, scratch, sizeof(float) * static_cast<std::size_t>(n));
+      for (int i = 0; i < cols; i += kChunk) sample_chunk<Out>(r + i, r + stride + i, w, scratch + i);
+      std::memcpy(out + j * n, scratch, sizeof(Out) * static_cast<std::size_t>(n));
     }
     return;
   }
@@ -263,23 +353,23 @@ void sample_fixed(const ImageView& image, float x, float y, int n, float* out) {
   // Each row in whole chunks: the samples past n land on the next row's start, which that row
   // overwrites; a row whose chunks would run past the patch goes through a scratch row.
   for (int j = 0; j < n; ++j) {
-    float* o = j * n + cols <= n * n ? out + j * n : scratch;
-    for (int i = 0; i < cols; i += kChunk) sample_chunk<kGrey>(rows[j] + i, rows[j + 1] + i, w, o + i);
-    if (o == scratch) std::memcpy(out + j * n, scratch, sizeof(float) * static_cast<std::size_t>(n));
+    Out* o = j * n + cols <= n * n ? out + j * n : scratch;
+    for (int i = 0; i < cols; i += kChunk) sample_chunk<Out>(rows[j] + i, rows[j + 1] + i, w, o + i);
+    if (o == scratch) std::memcpy(out + j * n, scratch, sizeof(Out) * static_cast<std::size_t>(n));
   }
 }
 
 // 8 samples two pixels apart, each from pixels 2i and 2i + 1 of the two source rows (16 bytes
 // read from each): the same integer formula as sample_chunk, on the even and odd pixels.
-template <bool kGrey>
-inline void sample_chunk_step2(const std::uint8_t* r0, const std::uint8_t* r1, const Weights& w, float* out) {
+template <class Out>
+inline void sample_chunk_step2(const std::uint8_t* r0, const std::uint8_t* r1, const Weights& w, Out* out) {
 #if defined(__ARM_NEON)
   const uint8x8x2_t a = vld2_u8(r0), b = vld2_u8(r1);  // val[0]: pixels 2i, val[1]: 2i + 1
   uint16x8_t s = vmull_u8(a.val[0], vdup_n_u8(static_cast<std::uint8_t>(w.w00)));
   s = vmlal_u8(s, a.val[1], vdup_n_u8(static_cast<std::uint8_t>(w.w01)));
   s = vmlal_u8(s, b.val[0], vdup_n_u8(static_cast<std::uint8_t>(w.w10)));
   s = vmlal_u8(s, b.val[1], vdup_n_u8(static_cast<std::uint8_t>(w.w11)));
-  store_sums<kGrey>(s, out);
+  store_sums(s, out);
 #elif defined(__SSE2__)
   const __m128i low_bytes = _mm_set1_epi16(0x00FF);
   const __m128i a = _mm_loadu_si128(reinterpret_cast<const __m128i*>(r0));
@@ -289,22 +379,25 @@ inline void sample_chunk_step2(const std::uint8_t* r0, const std::uint8_t* r1, c
   s = _mm_add_epi16(s, _mm_mullo_epi16(_mm_srli_epi16(a, 8), _mm_set1_epi16(static_cast<short>(w.w01))));
   s = _mm_add_epi16(s, _mm_mullo_epi16(_mm_and_si128(b, low_bytes), _mm_set1_epi16(static_cast<short>(w.w10))));
   s = _mm_add_epi16(s, _mm_mullo_epi16(_mm_srli_epi16(b, 8), _mm_set1_epi16(static_cast<short>(w.w11))));
-  store_sums<kGrey>(s, out);
+  store_sums(s, out);
 #else
-  constexpr float kInv = kGrey ? 1.0f / static_cast<float>(kWeightOne) : 1.0f;
   for (int i = 0; i < kChunk; ++i) {
     const int v = w.w00 * r0[2 * i] + w.w01 * r0[2 * i + 1] + w.w10 * r1[2 * i] + w.w11 * r1[2 * i + 1];
-    out[i] = static_cast<float>(v) * kInv;
+    if constexpr (std::is_same_v<Out, float>) {
+      out[i] = static_cast<float>(v) * (1.0f / static_cast<float>(kWeightOne));
+    } else {
+      out[i] = static_cast<Out>(v);
+    }
   }
 #endif
 }
 
-// sample_sparse_bilinear's contract (kGrey false: 128 times the grey levels): the samples of
+// sample_sparse_bilinear's contract (Px: 128 times the grey levels): the samples of
 // sample_fixed's (2n - 1)-wide patch at (x, y) on its even rows and columns (the same weights). In
 // place when the source block (whole chunks of 16 pixels) lies inside the image, else from copied
 // rows with the border pixels repeated.
-template <bool kGrey>
-void sample_fixed_step2(const ImageView& image, float x, float y, int n, float* out) {
+template <class Out>
+void sample_fixed_step2(const ImageView& image, float x, float y, int n, Out* out) {
   const PatchOrigin origin = patch_origin(x, y);
   const int x0 = origin.x0, y0 = origin.y0;
   const Weights& w = origin.w;
@@ -320,7 +413,7 @@ void sample_fixed_step2(const ImageView& image, float x, float y, int n, float* 
     const long stride = image.stride;
     for (int j = 0; j < n; ++j) {
       const std::uint8_t* r = image.row(y0 + 2 * j) + x0;
-      for (int i = 0; i < n; i += kChunk) sample_chunk_step2<kGrey>(r + 2 * i, r + stride + 2 * i, w, out + j * n + i);
+      for (int i = 0; i < n; i += kChunk) sample_chunk_step2<Out>(r + 2 * i, r + stride + 2 * i, w, out + j * n + i);
     }
     return;
   }
@@ -336,12 +429,12 @@ void sample_fixed_step2(const ImageView& image, float x, float y, int n, float* 
       }
     }
   }
-  alignas(16) float scratch[kMaxSparseCols];
+  alignas(16) Out scratch[kMaxSparseCols];
   for (int j = 0; j < n; ++j) {
-    float* o = j * n + cols <= n * n ? out + j * n : scratch;
+    Out* o = j * n + cols <= n * n ? out + j * n : scratch;
     for (int i = 0; i < cols; i += kChunk)
-      sample_chunk_step2<kGrey>(rows[2 * j] + 2 * i, rows[2 * j + 1] + 2 * i, w, o + i);
-    if (o == scratch) std::memcpy(out + j * n, scratch, sizeof(float) * static_cast<std::size_t>(n));
+      sample_chunk_step2<Out>(rows[2 * j] + 2 * i, rows[2 * j + 1] + 2 * i, w, o + i);
+    if (o == scratch) std::memcpy(out + j * n, scratch, sizeof(Out) * static_cast<std::size_t>(n));
   }
 }
 
@@ -352,21 +445,27 @@ void check_patch_size(int n) {
   }
 }
 
-// The n x n template (the centre of the (n + 2)^2 patch ext) and its central-difference
-// gradients, row by row in whole 4-lane vectors: the lanes past n land on the next row's start,
-// which that row overwrites, and past the last row in the arrays' kLanes of padding (ext, too, is
-// read up to kLanes past its end). Element by element as the scalar formula: the same floats.
-void template_and_gradients(const float* ext, int n, float* tmpl, float* gx, float* gy) {
+// The n x n template (the centre of the (n + 2)^2 patch ext) and its central differences (twice
+// the gradients), row by row in whole 8-lane vectors: the lanes past n land on the next row's
+// start, which that row overwrites, and past the last row in the arrays' kPxLanes of padding
+// (ext, too, is read up to kPxLanes past its end). Integers: the same values in any lane split.
+void template_and_gradients(const Px* ext, int n, Px* tmpl, Px* gx, Px* gy) {
+  typedef short PxVec __attribute__((vector_size(16)));
+  auto load = [](const Px* p) {
+    PxVec v;
+    std::memcpy(&v, p, sizeof v);
+    return v;
+  };
+  auto store = [](Px* p, PxVec v) { std::memcpy(p, &v, sizeof v); };
   const int ne = n + 2;
-  const int cols = (n + kLanes - 1) / kLanes * kLanes;
-  const Lanes half{0.5f, 0.5f, 0.5f, 0.5f};
+  const int cols = (n + kPxLanes - 1) / kPxLanes * kPxLanes;
   for (int j = 0; j < n; ++j) {
-    const float* c = ext + (j + 1) * ne + 1;
+    const Px* c = ext + (j + 1) * ne + 1;
     const int k0 = j * n;
-    for (int i = 0; i < cols; i += kLanes) {
-      store_lanes(tmpl + k0 + i, load_lanes(c + i));
-      store_lanes(gx + k0 + i, half * (load_lanes(c + i + 1) - load_lanes(c + i - 1)));
-      store_lanes(gy + k0 + i, half * (load_lanes(c + i + ne) - load_lanes(c + i - ne)));
+    for (int i = 0; i < cols; i += kPxLanes) {
+      store(tmpl + k0 + i, load(c + i));
+      store(gx + k0 + i, load(c + i + 1) - load(c + i - 1));
+      store(gy + k0 + i, load(c + i + ne) - load(c + i - ne));
     }
   }
 }
@@ -395,7 +494,7 @@ void KltOptions::validate() const {
 
 void sample_patch_bilinear(const ImageView& image, float x, float y, int n, float* out) {
   check_patch_size(n);
-  sample_fixed<true>(image, x, y, n, out);
+  sample_fixed<float>(image, x, y, n, out);
 }
 
 void sample_sparse_bilinear(const ImageView& image, float x, float y, int n, float* out) {
@@ -403,7 +502,7 @@ void sample_sparse_bilinear(const ImageView& image, float x, float y, int n, flo
     throw std::invalid_argument("sample_sparse_bilinear: n must be in 1.." + std::to_string(kMaxSparseSide) + ", got " +
                                 std::to_string(n));
   }
-  sample_fixed_step2<true>(image, x, y, n, out);
+  sample_fixed_step2<float>(image, x, y, n, out);
 }
 
 namespace {
@@ -413,43 +512,45 @@ namespace {
 struct KltWorkspace {
   static constexpr int kMaxN = KltOptions::kMaxWindowPx;
   static constexpr int kMaxT = kMaxN + 2;
-  // + kLanes: template_and_gradients reads and writes whole vectors past the last row's end.
-  alignas(16) float tmpl_ext[kMaxT * kMaxT + kLanes];
-  alignas(16) float tmpl[kMaxN * kMaxN + kLanes];
-  alignas(16) float gx[kMaxN * kMaxN + kLanes];
-  alignas(16) float gy[kMaxN * kMaxN + kLanes];
-  alignas(16) float warped[kMaxN * kMaxN];
+  // + kPxLanes: template_and_gradients reads and writes whole vectors past the last row's end.
+  alignas(16) Px tmpl_ext[kMaxT * kMaxT + kPxLanes];
+  alignas(16) Px tmpl[kMaxN * kMaxN + kPxLanes];
+  alignas(16) Px gx[kMaxN * kMaxN + kPxLanes];
+  alignas(16) Px gy[kMaxN * kMaxN + kPxLanes];
+  alignas(16) Px warped[kMaxN * kMaxN + kPxLanes];
   // A sparse level's template: every other sample of the (dense) template, and its gradients.
-  alignas(16) float sparse_tmpl[kMaxSparseSide * kMaxSparseSide + kLanes];
-  alignas(16) float sparse_gx[kMaxSparseSide * kMaxSparseSide + kLanes];
-  alignas(16) float sparse_gy[kMaxSparseSide * kMaxSparseSide + kLanes];
+  alignas(16) Px sparse_tmpl[kMaxSparseSide * kMaxSparseSide + kPxLanes];
+  alignas(16) Px sparse_gx[kMaxSparseSide * kMaxSparseSide + kPxLanes];
+  alignas(16) Px sparse_gy[kMaxSparseSide * kMaxSparseSide + kPxLanes];
 };
 
 // A level's template, in the workspace or in a cache block.
 struct TemplateRef {
-  float* tmpl = nullptr;
-  float* gx = nullptr;
-  float* gy = nullptr;
+  Px* tmpl = nullptr;
+  Px* gx = nullptr;
+  Px* gy = nullptr;
   GradientSums gs;
 };
 
-// Floats of each array in a cache block, whole vectors with kLanes to spare (as the workspace).
-constexpr int template_stride(int n) { return (n * n + 2 * kLanes - 1) / kLanes * kLanes; }
+// Units of each array in a cache block, whole vectors with kPxLanes to spare (as the workspace).
+constexpr int template_stride(int n) { return (n * n + 2 * kPxLanes - 1) / kPxLanes * kPxLanes; }
 
-// even_samples' last read of a template (last sparse row, last group of 4) lies inside the
-// template_stride(n) floats of a cache block and the workspace's arrays, for every odd window.
+// even_samples' last read of a template (last sparse row, last group of 8) lies inside the
+// template_stride(n) units of a cache block and the workspace's arrays, for every odd window.
 constexpr bool sparse_reads_fit() {
   for (int n = 1; n <= KltOptions::kMaxWindowPx; n += 2) {
-    const int side = n / 2 + 1, groups = (side + kLanes - 1) / kLanes * kLanes;
+    const int side = n / 2 + 1, groups = (side + kPxLanes - 1) / kPxLanes * kPxLanes;
     const int last = 2 * (side - 1) * n + 2 * groups - 1;
-    if (last >= template_stride(n) || last >= KltOptions::kMaxWindowPx * KltOptions::kMaxWindowPx + kLanes) return false;
+    if (last >= template_stride(n) || last >= KltOptions::kMaxWindowPx * KltOptions::kMaxWindowPx + kPxLanes) return false;
   }
   return true;
 }
 static_assert(sparse_reads_fit(), "even_samples reads past a template's storage");
 
-// A cache block: template, gradients, then the sums and the usable flag.
+// A cache block: template, gradients, then the sums and the usable flag (floats, copied in and
+// out: kSumFloats of them in 2 * kSumFloats units).
 constexpr int kSumFloats = 8;
+constexpr int kSumUnits = 2 * kSumFloats;
 
 // The smallest eigenvalue of the mean structure tensor is at least min_eigen (the samples are
 // 128 x grey levels, sample_chunk: the tensor is 128^2 x (grey/px)^2).
@@ -461,14 +562,14 @@ bool textured(const GradientSums& gs, int samples, const KltOptions& options) {
   return min_eig >= options.min_eigen * kScale2 && min_eig > 0.0f;
 }
 
-// Samples the template around p in I and its gradients into t (arrays of n * n + kLanes floats).
+// Samples the template around p in I and its gradients into t (arrays of n * n + kPxLanes units).
 // False when the window is untextured: the smallest eigenvalue of the mean structure tensor is
 // below min_eigen.
-bool prepare_template(const ImageView& I, const Eigen::Vector2f& p, const KltOptions& options, float* tmpl_ext,
+bool prepare_template(const ImageView& I, const Eigen::Vector2f& p, const KltOptions& options, Px* tmpl_ext,
                       TemplateRef* t) {
   const int n = options.window_px, half = n / 2, ne = n + 2, nn = n * n;
-  sample_fixed<false>(I, p.x() - static_cast<float>(half + 1), p.y() - static_cast<float>(half + 1), ne, tmpl_ext);
-  std::fill(tmpl_ext + ne * ne, tmpl_ext + ne * ne + kLanes, 0.0f);  // read by the last row's spare lanes
+  sample_fixed<Px>(I, p.x() - static_cast<float>(half + 1), p.y() - static_cast<float>(half + 1), ne, tmpl_ext);
+  std::fill(tmpl_ext + ne * ne, tmpl_ext + ne * ne + kPxLanes, Px{0});  // read by the last row's spare lanes
   template_and_gradients(tmpl_ext, n, t->tmpl, t->gx, t->gy);
   t->gs = gradient_sums(t->gx, t->gy, nn);
   return textured(t->gs, nn, options);
@@ -482,19 +583,21 @@ struct WindowGrid {
   int samples() const { return side * side; }
 };
 
-// dst[i] = src[2 i] for i < count, 4 at a time: reads src up to src[2 c - 1] and writes dst up
-// to dst[c - 1], c = count rounded up to 4. A template's last sparse row then reads up to 6
-// floats past the template (n = 9, 17, 25; sparse_reads_fit below checks every window), into
-// lanes that are dropped, and writes into the next sparse row, which comes after it, or the
-// sparse arrays' spare lanes.
-inline void even_samples(const float* src, float* dst, int count) {
-  for (int i = 0; i < count; i += kLanes, src += 2 * kLanes, dst += kLanes) {
-#if defined(__SSE2__)
-    _mm_storeu_ps(dst, _mm_shuffle_ps(_mm_loadu_ps(src), _mm_loadu_ps(src + 4), _MM_SHUFFLE(2, 0, 2, 0)));
-#elif defined(__ARM_NEON)
-    vst1q_f32(dst, vld2q_f32(src).val[0]);
+// dst[i] = src[2 i] for i < count, 8 at a time: reads src up to src[2 c - 1] and writes dst up
+// to dst[c - 1], c = count rounded up to 8. A template's last sparse row then reads past the
+// template (sparse_reads_fit above checks every window), into lanes that are dropped, and writes
+// into the next sparse row, which comes after it, or the sparse arrays' spare lanes.
+inline void even_samples(const Px* src, Px* dst, int count) {
+  for (int i = 0; i < count; i += kPxLanes, src += 2 * kPxLanes, dst += kPxLanes) {
+#if defined(__ARM_NEON)
+    vst1q_s16(dst, vld2q_s16(src).val[0]);
+#elif defined(__SSE2__)
+    // The even elements are the low halves of the 32-bit lanes: sign-extended in place, then packed.
+    const __m128i a = _mm_srai_epi32(_mm_slli_epi32(load_px(src), 16), 16);
+    const __m128i b = _mm_srai_epi32(_mm_slli_epi32(load_px(src + kPxLanes), 16), 16);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(dst), _mm_packs_epi32(a, b));
 #else
-    for (int k = 0; k < kLanes; ++k) dst[k] = src[2 * k];
+    for (int k = 0; k < kPxLanes; ++k) dst[k] = src[2 * k];
 #endif
   }
 }
@@ -534,25 +637,25 @@ int sparse_template_direct(const ImageView& I, const Eigen::Vector2f& p, const K
   const Weights& w = origin.w;
   const long stride = I.stride;
   // Rows 0, 2, ..., 2 side of the patch at its odd columns 1, 3, ..., 2 side - 1.
-  alignas(16) float even[(kMaxSparseSide + 1) * kMaxSparseCols];
+  alignas(16) Px even[(kMaxSparseSide + 1) * kMaxSparseCols];
   for (int j = 0; j <= side; ++j) {
     const std::uint8_t* r = I.row(y0 + 2 * j) + x0 + 1;
     for (int i = 0; i < side; i += kChunk)
-      sample_chunk_step2<false>(r + 2 * i, r + stride + 2 * i, w, even + j * kMaxSparseCols + i);
+      sample_chunk_step2<Px>(r + 2 * i, r + stride + 2 * i, w, even + j * kMaxSparseCols + i);
   }
-  alignas(16) float odd[kMaxSrcRow];
+  alignas(16) Px odd[kMaxSrcRow];
   for (int j = 0; j < side; ++j) {
     const std::uint8_t* r = I.row(y0 + 2 * j + 1) + x0;
-    for (int i = 0; i < cols; i += kChunk) sample_chunk<false>(r + i, r + stride + i, w, odd + i);
-    const float* above = even + j * kMaxSparseCols;
-    const float* below = above + kMaxSparseCols;
-    float* t = ws->sparse_tmpl + j * side;
-    float* gx = ws->sparse_gx + j * side;
-    float* gy = ws->sparse_gy + j * side;
+    for (int i = 0; i < cols; i += kChunk) sample_chunk<Px>(r + i, r + stride + i, w, odd + i);
+    const Px* above = even + j * kMaxSparseCols;
+    const Px* below = above + kMaxSparseCols;
+    Px* t = ws->sparse_tmpl + j * side;
+    Px* gx = ws->sparse_gx + j * side;
+    Px* gy = ws->sparse_gy + j * side;
     for (int i = 0; i < side; ++i) {
       t[i] = odd[2 * i + 1];
-      gx[i] = 0.5f * (odd[2 * i + 2] - odd[2 * i]);
-      gy[i] = 0.5f * (below[i] - above[i]);
+      gx[i] = static_cast<Px>(odd[2 * i + 2] - odd[2 * i]);
+      gy[i] = static_cast<Px>(below[i] - above[i]);
     }
   }
   *s = TemplateRef{ws->sparse_tmpl, ws->sparse_gx, ws->sparse_gy, gradient_sums(ws->sparse_gx, ws->sparse_gy, side * side)};
@@ -560,11 +663,11 @@ int sparse_template_direct(const ImageView& I, const Eigen::Vector2f& p, const K
 }
 
 // The window at top-left (x, y) on grid g, in 128 x grey levels.
-void sample_window(const ImageView& J, float x, float y, const WindowGrid& g, float* out) {
+void sample_window(const ImageView& J, float x, float y, const WindowGrid& g, Px* out) {
   if (g.step == 1) {
-    sample_fixed<false>(J, x, y, g.side, out);
+    sample_fixed<Px>(J, x, y, g.side, out);
   } else {
-    sample_fixed_step2<false>(J, x, y, g.side, out);
+    sample_fixed_step2<Px>(J, x, y, g.side, out);
   }
 }
 
@@ -574,15 +677,17 @@ void sample_window(const ImageView& J, float x, float y, const WindowGrid& g, fl
 bool level_template(const ImagePyramid& prev, int level, const Eigen::Vector2f& p_prev, const Eigen::Vector2f& p,
                     const KltOptions& options, KltTemplateCache* cache, int slot, KltWorkspace* ws, TemplateRef* t) {
   bool filled = false;
-  float* blk = cache != nullptr ? cache->block(slot, prev, p_prev, level, &filled) : nullptr;
+  Px* blk = cache != nullptr ? cache->block(slot, prev, p_prev, level, &filled) : nullptr;
   if (blk == nullptr) {
     *t = TemplateRef{ws->tmpl, ws->gx, ws->gy, GradientSums{}};
     return prepare_template(prev.level(level), p, options, ws->tmpl_ext, t);
   }
   const int stride = template_stride(options.window_px);
   *t = TemplateRef{blk, blk + stride, blk + 2 * stride, GradientSums{}};
-  float* sums = blk + 3 * stride;  // the sums, then the usable flag
+  Px* sums_at = blk + 3 * stride;  // the sums, then the usable flag (floats, by copy)
+  float sums[kSumFloats];
   if (filled) {
+    std::memcpy(sums, sums_at, sizeof sums);
     t->gs = GradientSums{sums[0], sums[1], sums[2], sums[3], sums[4]};
     return sums[5] != 0.0f;
   }
@@ -590,6 +695,8 @@ bool level_template(const ImagePyramid& prev, int level, const Eigen::Vector2f& 
   const GradientSums& g = t->gs;
   sums[0] = g.gxx, sums[1] = g.gxy, sums[2] = g.gyy, sums[3] = g.gx, sums[4] = g.gy;
   sums[5] = usable ? 1.0f : 0.0f;
+  sums[6] = sums[7] = 0.0f;
+  std::memcpy(sums_at, sums, sizeof sums);
   cache->mark_filled(slot, level);
   return usable;
 }
@@ -599,7 +706,7 @@ bool level_template(const ImagePyramid& prev, int level, const Eigen::Vector2f& 
 // locked onto something else). *converged: the last update was below epsilon_px, so warped
 // (sampled before it) is the window at the result to within epsilon_px.
 bool iterate_level(const ImageView& J, const Eigen::Vector2f& p, const Eigen::Vector2f& g, const KltOptions& options,
-                   float epsilon_px, const TemplateRef& t, const WindowGrid& grid, float* warped, Eigen::Vector2f* nu,
+                   float epsilon_px, const TemplateRef& t, const WindowGrid& grid, Px* warped, Eigen::Vector2f* nu,
                    bool* converged) {
   const int half = options.window_px / 2, nn = grid.samples();
   const float inv_area = 1.0f / static_cast<float>(nn);
@@ -655,7 +762,7 @@ bool iteration_template(const ImagePyramid& prev, int level, const Eigen::Vector
 
 }  // namespace
 
-int klt_template_floats(int window_px) { return 3 * template_stride(window_px) + kSumFloats; }
+int klt_template_units(int window_px) { return 3 * template_stride(window_px) + kSumUnits; }
 
 Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels, const KltOptions& options,
                  const Eigen::Vector2f& p_prev, Eigen::Vector2f* p_curr, KltTemplateCache* cache, int slot) {

@@ -2,7 +2,9 @@
 // Pyramidal Lucas-Kanade point tracking (Bouguet's coarse-to-fine scheme) on our own pyramids.
 // Patches are sampled bilinearly in fixed point, as in OpenCV's pyramidal LK: weights in 1/128
 // (the position quantized to 1/256 px, under the 0.01 px at which tracking stops), integer sums
-// of pixel x weight, so every machine gives the same floats; the tracking itself is float math.
+// of pixel x weight, so every machine gives the same samples. The window sums (structure tensor,
+// residual sums) are exact integer sums over 16-bit samples and differences, 8 per NEON / SSE2
+// step, rounded once to float; the Gauss-Newton step is float math.
 // The residual is taken between mean-removed windows (an intensity offset between frames or
 // between the left and right cameras does not bias it). One call tracks one point; the caller
 // runs the forward-backward check by tracking the result back. Template gradients are central
@@ -46,7 +48,7 @@ struct KltOptions {
 // pass p_prev when there is none) and the tracked position on success. Returns kOk, or
 // kNotConverged when the window is untextured, the point left the image or the final residual
 // is too large (then *p_curr is unspecified).
-// With a cache (built with klt_template_floats(options.window_px) floats per level), the
+// With a cache (built with klt_template_units(options.window_px) units per level), the
 // templates of p_prev in prev come from its slot `slot` when it holds them and go there when it
 // does not: the result is the same bits either way. Only sparse levels (sparse_from_level) differ
 // between a cached and an uncached template: the cached one's texture test is the whole window's,
@@ -56,8 +58,8 @@ Status klt_track(const ImagePyramid& prev, const ImagePyramid& curr, int levels,
                  const Eigen::Vector2f& p_prev, Eigen::Vector2f* p_curr, KltTemplateCache* cache = nullptr,
                  int slot = -1);
 
-// Floats of one level's template in a KltTemplateCache for windows of window_px.
-int klt_template_floats(int window_px);
+// 16-bit units of one level's template in a KltTemplateCache for windows of window_px.
+int klt_template_units(int window_px);
 
 // Samples an n x n patch whose top-left sample sits at (x, y) (sub-pixel, level px) with bilinear
 // interpolation in fixed point (grey levels out): with X = round(128 ax), Y = round(128 ay) for

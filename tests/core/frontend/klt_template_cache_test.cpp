@@ -53,7 +53,7 @@ Runs track(const Pair& pr, int i, int levels, ums::KltTemplateCache* cache, int 
 TEST_CASE("klt_track with a template cache gives the same bits as without, on a miss and on a hit") {
   const Pair pr;
   const ums::KltOptions opt;
-  ums::KltTemplateCache cache(pr.n, 2, ums::klt_template_floats(opt.window_px));
+  ums::KltTemplateCache cache(pr.n, 2, ums::klt_template_units(opt.window_px));
   int ok = 0;
   for (int levels : {2, 4, 1}) {
     for (int i = 0; i < pr.n; ++i) {
@@ -77,7 +77,7 @@ TEST_CASE("klt_track with a template cache gives the same bits as without, on a 
 TEST_CASE("a template cache slot holding another point, or a rebuilt pyramid, is re-keyed, not read") {
   Pair pr;
   const ums::KltOptions opt;
-  ums::KltTemplateCache cache(1, 2, ums::klt_template_floats(opt.window_px));
+  ums::KltTemplateCache cache(1, 2, ums::klt_template_units(opt.window_px));
   // One slot for every point: each call finds the previous point's templates there.
   for (int i = 0; i < pr.n; ++i) {
     const Runs plain = track(pr, i, 2, nullptr, -1);
@@ -116,7 +116,7 @@ TEST_CASE("a template cache refuses empty sizes and answers nullptr outside its 
   CHECK_FALSE(filled);
   CHECK(cache.block(-1, pyr, Eigen::Vector2f(3.0f, 4.0f), 0, &filled) == nullptr);
   CHECK(cache.block(0, pyr, Eigen::Vector2f(3.0f, 4.0f), 2, &filled) == nullptr);
-  float* b0 = cache.block(0, pyr, Eigen::Vector2f(3.0f, 4.0f), 1, &filled);
+  std::int16_t* b0 = cache.block(0, pyr, Eigen::Vector2f(3.0f, 4.0f), 1, &filled);
   REQUIRE(b0 != nullptr);
   CHECK_FALSE(filled);
   cache.mark_filled(0, 1);
@@ -129,7 +129,7 @@ TEST_CASE("a template cache refuses empty sizes and answers nullptr outside its 
 
 TEST_CASE("klt_track through a template cache allocates nothing") {
   const Pair pr;
-  ums::KltTemplateCache cache(pr.n, 2, ums::klt_template_floats(ums::KltOptions{}.window_px));
+  ums::KltTemplateCache cache(pr.n, 2, ums::klt_template_units(ums::KltOptions{}.window_px));
   ums::AllocScope scope;
   for (int i = 0; i < pr.n; ++i) {
     track(pr, i, 4, &cache, i);

@@ -403,7 +403,7 @@ TEST_CASE("a sparse level without a cached template samples its grid directly: t
     // wherever the window has any texture, so only the samples and the iterations are compared.
     opt.min_eigen = 1e-3f;
     const int levels = window <= 21 ? 4 : 2;  // the 4th level (80 x 60) holds a 21 px window
-    ums::KltTemplateCache cache(1, 4, ums::klt_template_floats(window));
+    ums::KltTemplateCache cache(1, 4, ums::klt_template_units(window));
     // Where the direct sampling reaches the right and bottom image edges at level 0: the patch
     // (window + 2 samples a side) read in 8-sample chunks, its even rows in 16-byte pairs.
     const int half = window / 2, ne = window + 2, side = half + 1;
@@ -455,7 +455,7 @@ TEST_CASE("without a cached template a sparse level tests the texture of its spa
   ums::KltOptions opt;
   opt.sparse_from_level = 0;
   opt.min_eigen = 250.0f;
-  ums::KltTemplateCache cache(1, 1, ums::klt_template_floats(opt.window_px));
+  ums::KltTemplateCache cache(1, 1, ums::klt_template_units(opt.window_px));
   const Eigen::Vector2f from(31.0f, 33.0f);
   Eigen::Vector2f direct = from, dense = from;
   CHECK(ums::klt_track(pa, pb, 1, opt, from, &direct) == ums::Status::kOk);
@@ -463,7 +463,7 @@ TEST_CASE("without a cached template a sparse level tests the texture of its spa
   CHECK(ums::klt_track(pa, pb, 1, opt, from, &dense, &cache, 0) == ums::Status::kNotConverged);
   // Below both means both keep it, at the same place (a new cache: a slot keeps its texture verdict).
   opt.min_eigen = 100.0f;
-  ums::KltTemplateCache cache2(1, 1, ums::klt_template_floats(opt.window_px));
+  ums::KltTemplateCache cache2(1, 1, ums::klt_template_units(opt.window_px));
   direct = from;
   dense = from;
   CHECK(ums::klt_track(pa, pb, 1, opt, from, &direct) == ums::Status::kOk);
