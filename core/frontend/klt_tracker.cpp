@@ -28,12 +28,6 @@ namespace {
 using Px = std::int16_t;
 constexpr int kPxLanes = 8;
 
-// sum a[k] b[k] and sum a[k] over k < nn, exact.
-struct DotSums {
-  std::int64_t ab = 0;
-  std::int64_t a = 0;
-};
-
 #if defined(__ARM_NEON)
 inline int16x8_t load_px(const Px* p) { return vld1q_s16(p); }
 // acc += the products of a and b, widened (vpadal: pairwise add-accumulate long).
@@ -166,7 +160,8 @@ inline void difference_lanes(const Px* t, const Px* w, FloatLanes* lo, FloatLane
 }
 
 // Mean |T - W - offset| with the offset the mean of T - W: the sum of T - W exact, the absolute
-// deviations in 4 float lanes with a fixed order (element k in lane k % 4, the lanes added 0..3).
+// deviations in 4 float lanes with a fixed order (the elements of whole groups of 8 in lane k % 4,
+// the lanes added 0..3, then the last nn % 8 one by one).
 float mean_abs_error(const Px* t, const Px* w, int nn) {
   std::int64_t sum_d = 0;
   int j = 0;
