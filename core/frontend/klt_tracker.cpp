@@ -35,8 +35,10 @@ inline int64x2_t add_products(int64x2_t acc, int16x8_t a, int16x8_t b) {
   acc = vpadalq_s32(acc, vmull_s16(vget_low_s16(a), vget_low_s16(b)));
   return vpadalq_s32(acc, vmull_s16(vget_high_s16(a), vget_high_s16(b)));
 }
-inline std::int64_t lanes_total(int64x2_t v) { return vgetq_lane_s64(v, 0) + vgetq_lane_s64(v, 1); }
-inline std::int64_t lanes_total(int32x4_t v) {
+// acc += the values of a (pairwise add-accumulate long: a window's sum stays below 2^23).
+inline int32x4_t add_values(int32x4_t acc, int16x8_t a) { return vpadalq_s16(acc, a); }
+inline std::int64_t total64(int64x2_t v) { return vgetq_lane_s64(v, 0) + vgetq_lane_s64(v, 1); }
+inline std::int64_t total32(int32x4_t v) {
   return static_cast<std::int64_t>(vgetq_lane_s32(v, 0)) + vgetq_lane_s32(v, 1) + vgetq_lane_s32(v, 2) + vgetq_lane_s32(v, 3);
 }
 #elif defined(__SSE2__)
@@ -49,6 +51,8 @@ inline __m128i add_products(__m128i acc, __m128i a, __m128i b) {
   acc = _mm_add_epi64(acc, _mm_unpacklo_epi32(p, sign));
   return _mm_add_epi64(acc, _mm_unpackhi_epi32(p, sign));
 }
+// acc (four 32-bit lanes) += the values of a, in pairs.
+inline __m128i add_values(__m128i acc, __m128i a) { return _mm_add_epi32(acc, _mm_madd_epi16(a, _mm_set1_epi16(1))); }
 inline std::int64_t total64(__m128i v) {
   alignas(16) std::int64_t l[2];
   _mm_store_si128(reinterpret_cast<__m128i*>(l), v);
@@ -78,20 +82,19 @@ GradientSums gradient_sums(const Px* gx, const Px* gy, int nn) {
     axx = add_products(axx, a, a);
     axy = add_products(axy, a, b);
     ayy = add_products(ayy, b, b);
-    ax = vpadalq_s16(ax, a);
-    ay = vpadalq_s16(ay, b);
+    ax = add_values(ax, a);
+    ay = add_values(ay, b);
   }
-  sxx = lanes_total(axx), sxy = lanes_total(axy), syy = lanes_total(ayy), sx = lanes_total(ax), sy = lanes_total(ay);
+  sxx = total64(axx), sxy = total64(axy), syy = total64(ayy), sx = total32(ax), sy = total32(ay);
 #elif defined(__SSE2__)
-  const __m128i ones = _mm_set1_epi16(1);
   __m128i axx = _mm_setzero_si128(), axy = axx, ayy = axx, ax = axx, ay = axx;
   for (; k + kPxLanes <= nn; k += kPxLanes) {
     const __m128i a = load_px(gx + k), b = load_px(gy + k);
     axx = add_products(axx, a, a);
     axy = add_products(axy, a, b);
     ayy = add_products(ayy, b, b);
-    ax = _mm_add_epi32(ax, _mm_madd_epi16(a, ones));
-    ay = _mm_add_epi32(ay, _mm_madd_epi16(b, ones));
+    ax = add_values(ax, a);
+    ay = add_values(ay, b);
   }
   sxx = total64(axx), sxy = total64(axy), syy = total64(ayy), sx = total32(ax), sy = total32(ay);
 #endif
@@ -117,17 +120,16 @@ ErrorSums error_sums(const Px* t, const Px* w, const Px* gx, const Px* gy, int n
   int32x4_t ad = vdupq_n_s32(0);
   for (; k + kPxLanes <= nn; k += kPxLanes) {
     const int16x8_t d = vsubq_s16(load_px(t + k), load_px(w + k));
-    ad = vpadalq_s16(ad, d);
+    ad = add_values(ad, d);
     adx = add_products(adx, d, load_px(gx + k));
     ady = add_products(ady, d, load_px(gy + k));
   }
-  sd = lanes_total(ad), sdx = lanes_total(adx), sdy = lanes_total(ady);
+  sd = total32(ad), sdx = total64(adx), sdy = total64(ady);
 #elif defined(__SSE2__)
-  const __m128i ones = _mm_set1_epi16(1);
   __m128i adx = _mm_setzero_si128(), ady = adx, ad = adx;
   for (; k + kPxLanes <= nn; k += kPxLanes) {
     const __m128i d = _mm_sub_epi16(load_px(t + k), load_px(w + k));
-    ad = _mm_add_epi32(ad, _mm_madd_epi16(d, ones));
+    ad = add_values(ad, d);
     adx = add_products(adx, d, load_px(gx + k));
     ady = add_products(ady, d, load_px(gy + k));
   }
@@ -167,12 +169,11 @@ float mean_abs_error(const Px* t, const Px* w, int nn) {
   int j = 0;
 #if defined(__ARM_NEON)
   int32x4_t ad = vdupq_n_s32(0);
-  for (; j + kPxLanes <= nn; j += kPxLanes) ad = vpadalq_s16(ad, vsubq_s16(load_px(t + j), load_px(w + j)));
-  sum_d = lanes_total(ad);
+  for (; j + kPxLanes <= nn; j += kPxLanes) ad = add_values(ad, vsubq_s16(load_px(t + j), load_px(w + j)));
+  sum_d = total32(ad);
 #elif defined(__SSE2__)
   __m128i ad = _mm_setzero_si128();
-  for (; j + kPxLanes <= nn; j += kPxLanes)
-    ad = _mm_add_epi32(ad, _mm_madd_epi16(_mm_sub_epi16(load_px(t + j), load_px(w + j)), _mm_set1_epi16(1)));
+  for (; j + kPxLanes <= nn; j += kPxLanes) ad = add_values(ad, _mm_sub_epi16(load_px(t + j), load_px(w + j)));
   sum_d = total32(ad);
 #endif
   for (; j < nn; ++j) sum_d += t[j] - w[j];
@@ -252,6 +253,16 @@ inline void store_sums(__m128i s, float* out) {
 }
 #endif
 
+// A sample's integer sum v out: float grey levels, or v itself (Px).
+template <class Out>
+inline Out sample_value(int v) {
+  if constexpr (std::is_same_v<Out, float>) {
+    return static_cast<float>(v) * (1.0f / static_cast<float>(kWeightOne));
+  } else {
+    return static_cast<Out>(v);
+  }
+}
+
 // 8 samples from two source rows (each read at i .. i + 8, 9 pixels): float grey levels, or (Px)
 // 128 times them, the integer sums themselves. The tracker works on the latter: its thresholds
 // are scaled to match.
@@ -276,12 +287,7 @@ inline void sample_chunk(const std::uint8_t* r0, const std::uint8_t* r1, const W
   store_sums(s, out);
 #else
   for (int i = 0; i < kChunk; ++i) {
-    const int v = w.w00 * r0[i] + w.w01 * r0[i + 1] + w.w10 * r1[i] + w.w11 * r1[i + 1];
-    if constexpr (std::is_same_v<Out, float>) {
-      out[i] = static_cast<float>(v) * (1.0f / static_cast<float>(kWeightOne));
-    } else {
-      out[i] = static_cast<Out>(v);
-    }
+    out[i] = sample_value<Out>(w.w00 * r0[i] + w.w01 * r0[i + 1] + w.w10 * r1[i] + w.w11 * r1[i + 1]);
   }
 #endif
 }
@@ -305,9 +311,9 @@ void clamped_row(const std::uint8_t* r, int w, int x0, int src, std::uint8_t* ou
   std::memset(out + hi, r[w - 1], static_cast<std::size_t>(src - hi));
 }
 
-// sample_patch_bilinear's contract (n checked by the caller; Px: 128 times the grey levels). The pixels are read in place when the columns under the patch (whole chunks + 1) lie
-// inside the image; a block that crosses the left or right edge is copied with the border pixels
-// repeated.
+// sample_patch_bilinear's contract (n checked by the caller; Px: 128 times the grey levels). The
+// pixels are read in place when the columns under the patch (whole chunks + 1) lie inside the
+// image; a block that crosses the left or right edge is copied with the border pixels repeated.
 template <class Out>
 void sample_fixed(const ImageView& image, float x, float y, int n, Out* out) {
   const PatchOrigin origin = patch_origin(x, y);
@@ -377,12 +383,7 @@ inline void sample_chunk_step2(const std::uint8_t* r0, const std::uint8_t* r1, c
   store_sums(s, out);
 #else
   for (int i = 0; i < kChunk; ++i) {
-    const int v = w.w00 * r0[2 * i] + w.w01 * r0[2 * i + 1] + w.w10 * r1[2 * i] + w.w11 * r1[2 * i + 1];
-    if constexpr (std::is_same_v<Out, float>) {
-      out[i] = static_cast<float>(v) * (1.0f / static_cast<float>(kWeightOne));
-    } else {
-      out[i] = static_cast<Out>(v);
-    }
+    out[i] = sample_value<Out>(w.w00 * r0[2 * i] + w.w01 * r0[2 * i + 1] + w.w10 * r1[2 * i] + w.w11 * r1[2 * i + 1]);
   }
 #endif
 }
