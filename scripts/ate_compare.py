@@ -11,7 +11,12 @@ The simulated flights are chaotic (a 1 % change of F_threshold moves a photo fli
 40 %), so a difference of a few per cent needs this spread beside it; the runs of one flight are
 correlated, so the error is a lower bound.
 
-Usage: ate_compare.py WORK BASE_PREFIX NEW_PREFIX
+--metric rpe1s compares stats.json's accuracy.rpe_1s_m instead (the mean translation error over
+1 s segments): a per-frame change moves it 4-7x less chaotically than the ATE (per-run spread of
+the log-ratio under a rounding change about 4 % against 13-26 %: docs/performance.md, "An
+ensemble of seeds"), so it resolves changes of a few per cent with a few dozen runs.
+
+Usage: ate_compare.py [--metric ate|rpe1s] WORK BASE_PREFIX NEW_PREFIX
 Exit status: 0, or 1 when no run pairs up.
 """
 import json
@@ -20,13 +25,16 @@ import os
 import sys
 
 
-def ate_m(path):
+METRICS = {"ate": ("ate_rmse_m", "ATE"), "rpe1s": ("rpe_1s_m", "RPE 1 s")}
+
+
+def metric_m(path, key):
     with open(path) as f:
-        value = json.load(f).get("accuracy", {}).get("ate_rmse_m")
+        value = json.load(f).get("accuracy", {}).get(key)
     return value if isinstance(value, (int, float)) and value > 0 else None
 
 
-def paired_runs(work, base, new):
+def paired_runs(work, base, new, key="ate_rmse_m"):
     """{group: [(run/flight, ate_base, ate_new)]} for the runs both prefixes hold."""
     groups = {}
     for name in sorted(os.listdir(work)):
@@ -42,9 +50,9 @@ def paired_runs(work, base, new):
             b = os.path.join(other, flight, "stats.json")
             if not (os.path.isfile(a) and os.path.isfile(b)):
                 continue
-            ate_a, ate_b = ate_m(a), ate_m(b)
+            ate_a, ate_b = metric_m(a, key), metric_m(b, key)
             if ate_a is None or ate_b is None:
-                print("ate_compare: %s or %s has no ATE" % (a, b), file=sys.stderr)
+                print("ate_compare: %s or %s has no %s" % (a, b, key), file=sys.stderr)
                 continue
             groups.setdefault(group, []).append((suffix + "/" + flight, ate_a, ate_b))
     return groups
@@ -63,15 +71,22 @@ def summary(pairs):
 
 
 def main(argv):
-    if len(argv) != 4:
+    args = argv[1:]
+    metric = "ate"
+    if len(args) >= 2 and args[0] == "--metric":
+        metric = args[1]
+        args = args[2:]
+    if len(args) != 3 or metric not in METRICS:
         print(__doc__.strip(), file=sys.stderr)
         return 64
-    work, base, new = argv[1:4]
-    groups = paired_runs(work, base, new)
+    work, base, new = args
+    key, label = METRICS[metric]
+    groups = paired_runs(work, base, new, key)
     if not groups:
         print("ate_compare: no run of %s_* in %s pairs with one of %s_*" % (base, work, new), file=sys.stderr)
         return 1
-    print("| group | runs | mean ATE %s [mm] | mean ATE %s [mm] | mean log-ratio (se) | worse / better |" % (base, new))
+    print("| group | runs | mean %s %s [mm] | mean %s %s [mm] | mean log-ratio (se) | worse / better |" %
+          (label, base, label, new))
     print("| --- | ---: | ---: | ---: | --- | --- |")
     for group in sorted(groups):
         n, mean_a, mean_b, mean, se, worse, better = summary(groups[group])

@@ -305,6 +305,12 @@ void write_accuracy_json(const Accuracy& a, JsonWriter& w) {
       .value("ate_rmse_m", a.result->ate.translation_m.rmse, 6)
       .value("ate_max_m", a.result->ate.translation_m.max, 6)
       .value("rotation_rmse_deg", a.result->ate.rotation_deg.rmse, 6);
+  // Local accuracy: the mean error over 1 s segments. Per frame changes move it far less
+  // chaotically than the ATE, which one drift event can set (docs/performance.md, session 30).
+  for (const eval::RpeResult& r : a.result->rpe) {
+    if (r.unit != eval::RpeUnit::kSeconds || r.delta != 1.0 || r.translation_m.count == 0) continue;
+    w.value("rpe_1s_m", r.translation_m.mean, 7).value("rpe_1s_deg", r.rotation_deg.mean, 6);
+  }
   if (a.budget != nullptr) {
     w.begin_object("budget");
     eval::write_error_budget_json(*a.budget, w);

@@ -10,9 +10,11 @@ import tempfile
 SCRIPT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "scripts", "ate_compare.py")
 
 
-def write_run(work, name, flight, ate_m):
+def write_run(work, name, flight, ate_m, rpe_m=None):
     os.makedirs(os.path.join(work, name, flight))
     stats = {"accuracy": {"ate_rmse_m": ate_m}} if ate_m is not None else {"accuracy": {}}
+    if rpe_m is not None:
+        stats["accuracy"]["rpe_1s_m"] = rpe_m
     with open(os.path.join(work, name, flight, "stats.json"), "w") as f:
         json.dump(stats, f)
 
@@ -30,10 +32,10 @@ def main():
             failures.append(what)
 
     with tempfile.TemporaryDirectory() as work:
-        write_run(work, "base_data_f1.0", "MH01", 0.002)
-        write_run(work, "base_data_f1.0", "V101", 0.004)
-        write_run(work, "new_data_f1.0", "MH01", 0.001)   # halved
-        write_run(work, "new_data_f1.0", "V101", 0.004)   # the same
+        write_run(work, "base_data_f1.0", "MH01", 0.002, 0.0010)
+        write_run(work, "base_data_f1.0", "V101", 0.004, 0.0020)
+        write_run(work, "new_data_f1.0", "MH01", 0.001, 0.0011)   # ATE halved, RPE +10 %
+        write_run(work, "new_data_f1.0", "V101", 0.004, 0.0022)   # ATE the same, RPE +10 %
         write_run(work, "base_ph_f1.0", "MH01", 0.010)
         write_run(work, "new_ph_f1.0", "MH01", 0.020)     # doubled
         write_run(work, "base_ph_f1.0", "V102", 0.010)    # no partner: left out
@@ -50,7 +52,19 @@ def main():
               "data row %s" % rows.get("data"))
         # ph: one pair, doubled: +69.3 %, no spread from one run.
         check(rows.get("ph") == ["1", "10.000", "20.000", "%+.1f %% (nan)" % (-half), "1 / 0"], "ph row %s" % rows.get("ph"))
-        check("has no ATE" in err, "missing ATE not reported: %r" % err)
+        check("has no ate_rmse_m" in err, "missing ATE not reported: %r" % err)
+        # The 1 s RPE of the same runs: both +10 %, no spread; ph has none (warned, left out).
+        code, out, err = run("--metric", "rpe1s", work, "base", "new")
+        check(code == 0, "rpe1s: exit 0 with pairs, got %d (%s)" % (code, err))
+        check("mean RPE 1 s base [mm]" in out, "rpe1s header: %r" % out)
+        rows = {line.split("|")[1].strip(): [c.strip() for c in line.split("|")[2:-1]]
+                for line in out.splitlines() if line.startswith("| data") or line.startswith("| ph")}
+        tenth = 100 * math.log(1.1)
+        check(rows.get("data") == ["2", "1.500", "1.650", "%+.1f %% (%.1f)" % (tenth, 0.0), "2 / 0"],
+              "rpe1s data row %s" % rows.get("data"))
+        check("ph" not in rows and "has no rpe_1s_m" in err, "rpe1s ph: %s, %r" % (rows.get("ph"), err))
+        code, _, err = run("--metric", "rmse", work, "base", "new")
+        check(code == 64 and "Usage" in err, "unknown metric: exit %d" % code)
         code, out, err = run(work, "base", "other")
         check(code == 1 and "pairs with one of other_*" in err, "no pairs: exit %d, %r" % (code, err))
         code, _, err = run(work, "base")

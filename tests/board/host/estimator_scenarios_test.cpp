@@ -73,6 +73,11 @@ TEST_CASE("estimator scenario nominal (V101, 12 s): ATE <= 5 cm, a pose for ever
   CHECK(pose_fraction(f) >= 0.9);
   CHECK(f.number("accuracy.ate_rmse_m") >= 0.0);
   CHECK(f.number("accuracy.ate_rmse_m") <= 0.05);
+  // Local error over 1 s segments: above zero, below the global error's bound.
+  CHECK(f.number("accuracy.rpe_1s_m") > 0.0);
+  CHECK(f.number("accuracy.rpe_1s_m") <= 0.05);
+  CHECK(f.number("accuracy.rpe_1s_deg") > 0.0);
+  CHECK(f.number("accuracy.rpe_1s_deg") <= 2.0);
   CHECK(f.number("memory.heap_allocs_steady_state") == 0);
 }
 
