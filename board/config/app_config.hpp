@@ -26,6 +26,7 @@ struct AppConfig {
   int detect_min_missing = 1;           // features missing before a new detection (ours; <= max_cnt)
   int klt_sparse_from_level = 4;        // KLT levels from this one up iterate on every other pixel (4: none)
   int klt_confirm_sparse_from_level = 0;  // the same for the forward-backward confirmation tracks
+  bool stereo_confirm_tracked = false;  // a tracked feature's stereo match also confirmed right->left
   // Keyframes
   double keyframe_parallax_px = 10.0;   // px at a 460 px focal length (VINS keyframe_parallax)
   // Back end

@@ -18,6 +18,7 @@ FrontendOptions frontend_options_from(const AppConfig& config) {
   o.detect_min_missing = config.detect_min_missing;
   o.klt.sparse_from_level = config.klt_sparse_from_level;
   o.confirm_sparse_from_level = config.klt_confirm_sparse_from_level;
+  o.stereo_confirm_tracked = config.stereo_confirm_tracked;
   o.detector.min_distance_px = static_cast<float>(config.min_dist_px);
   o.ransac.threshold_px = static_cast<float>(config.f_threshold_px);
   return o;

@@ -58,6 +58,7 @@ struct FrontendFrameStats {
   int new_left = 0;              // detections in the left image
   int new_right = 0;             // detections in uncovered right-image regions
   int stereo_attempts = 0;       // left features tried in the right image
+  int stereo_confirmations = 0;  // right->left KLT confirmations run (FrontendOptions::stereo_confirm_tracked)
   int stereo_rejected_klt = 0;   // left->right KLT or right->left confirmation failed
   int stereo_rejected_epipolar = 0;  // match farther than stereo_epipolar_max_px from its epipolar line
   float stereo_epipolar_rms_px = 0.0f;  // px, RMS distance of accepted 3D matches to their epipolar line

@@ -329,7 +329,10 @@ Frontend::StereoMatch Frontend::match_track(const LeftTrack& t, const Eigen::Vec
     }
     Eigen::Vector2f pr = start;
     if (klt_track(L, R, levels, options_.klt, t.uv, &pr, templates_.get(), t.slot) != Status::kOk) continue;
-    if (!confirmed(L, R, levels, t.uv, pr, options_.stereo_fb_max_px)) continue;
+    if (!had_match || options_.stereo_confirm_tracked) {
+      ++m.confirmations;
+      if (!confirmed(L, R, levels, t.uv, pr, options_.stereo_fb_max_px)) continue;
+    }
     Eigen::Vector3f br;
     if (!cam_[1].unproject(pr, &br)) continue;
     const float d = stereo_epipolar_distance_px(t.bearing, br);
@@ -372,6 +375,7 @@ void Frontend::match_stereo(FrontendFrameStats* st) {
     t.stereo = false;
     const bool had_match = std::isfinite(t.right_guess.x()) && t.stereo_prev;
     const StereoMatch m = match_track(t, guess, had_match);
+    st->stereo_confirmations += m.confirmations;
     const bool matched = m.matched;
     t.stereo_failed = !matched;
     if (!matched) {

@@ -166,18 +166,21 @@ TEST_CASE("config from the dataset's calibration keeps it and the defaults", "[c
   CHECK_NOTHROW(config.validate());
 }
 
-TEST_CASE("the KLT's sparse levels are keys, and without them the front end's defaults hold", "[config]") {
+TEST_CASE("the KLT's sparse levels and the stereo confirmation are keys, and without them the front end's defaults hold", "[config]") {
   const std::string dir = ums::test::make_temp_dir("config_klt_sparse");
   std::vector<std::string> warnings;
   const ums::AppConfig c = ums::load_config(
-      write_vins_config(dir, std::string(kVinsConfig) + "klt_sparse_from_level: 2\nklt_confirm_sparse_from_level: 1\n"),
+      write_vins_config(dir, std::string(kVinsConfig) +
+                                 "klt_sparse_from_level: 2\nklt_confirm_sparse_from_level: 1\nstereo_confirm_tracked: 1\n"),
       micro_calibration(), &warnings);
   CHECK(warnings.empty());
   CHECK(c.klt_sparse_from_level == 2);
   CHECK(c.klt_confirm_sparse_from_level == 1);
+  CHECK(c.stereo_confirm_tracked);
   const ums::AppConfig d = ums::config_from_calibration(micro_calibration());
   CHECK(d.klt_sparse_from_level == ums::FrontendOptions{}.klt.sparse_from_level);
   CHECK(d.klt_confirm_sparse_from_level == ums::FrontendOptions{}.confirm_sparse_from_level);
+  CHECK(d.stereo_confirm_tracked == ums::FrontendOptions{}.stereo_confirm_tracked);
 }
 
 TEST_CASE("a VINS-Fusion stereo-IMU config is read with its camodocal files and no warnings", "[config]") {

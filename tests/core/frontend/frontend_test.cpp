@@ -134,6 +134,55 @@ TEST_CASE("synthetic rectified pair: every stereo match has the true disparity a
   CHECK(out.stats.stereo_epipolar_rms_px < 0.05f);
 }
 
+TEST_CASE("stereo_confirm_tracked: tracked matches skip the right->left check and keep the true disparity") {
+  // A wall at 4 m (10 px disparity) sliding 1.5 px per frame: frame 0 matches every feature as
+  // new (confirmed); frames 1-3 re-match the tracked ones from their previous match.
+  const int w = 480, h = 320;
+  const double f = 400.0, disparity = 10.0;
+  const ums::test::BlobTexture tex(w + 60, h, 900, 4242u);
+  for (const bool confirm : {false, true}) {
+    ums::FrontendOptions o;
+    o.stereo_confirm_tracked = confirm;
+    ums::Frontend fe(o, synthetic_rig(w, h, f));
+    static ums::FrameFeatures out;
+    int tracked_attempts = 0, tracked_confirmations = 0;
+    double sq = 0.0;
+    int n = 0;
+    for (int k = 0; k < 4; ++k) {
+      const ums::test::GreyImage left = tex.render(w, h, 0.0, Eigen::Vector2d(1.5 * k, 0.0));
+      const ums::test::GreyImage right = tex.render(w, h, 0.0, Eigen::Vector2d(1.5 * k - disparity, 0.0));
+      ums::StereoFrame fr;
+      fr.seq = static_cast<std::uint64_t>(k);
+      fr.left = left.view();
+      fr.right = right.view();
+      REQUIRE(fe.process(fr, nullptr, &out) == ums::Status::kOk);
+      if (k == 0) {
+        CHECK(out.stats.stereo_confirmations >= out.n_3d);  // new: every match confirmed
+        continue;
+      }
+      tracked_attempts += out.stats.stereo_attempts;
+      tracked_confirmations += out.stats.stereo_confirmations;
+      for (const auto& obs : out.features) {
+        if (obs.cls != ums::FeatureClass::k3D) continue;
+        const Eigen::Vector2f d = obs.uv_right_px - obs.uv_left_px;
+        sq += std::pow(static_cast<double>(d.x()) + disparity, 2) + std::pow(static_cast<double>(d.y()), 2);
+        ++n;
+      }
+      CHECK(out.n_3d >= 0.8 * static_cast<double>(out.features.size()));
+    }
+    const double rms = std::sqrt(sq / std::max(n, 1));
+    INFO("confirm " << confirm << ": attempts " << tracked_attempts << ", confirmations " << tracked_confirmations
+                    << ", disparity RMS " << rms << " px over " << n);
+    CHECK(n >= 150);
+    CHECK(rms < 0.05);
+    if (confirm) {
+      CHECK(tracked_confirmations >= tracked_attempts);
+    } else {
+      CHECK(tracked_confirmations * 10 < tracked_attempts);  // only the few new features' matches
+    }
+  }
+}
+
 TEST_CASE("IMU rotation hint: a 6 degree roll is tracked without a pyramid only with the hint") {
   // Roll about the optical axis of a distortion-free camera is an image rotation about the
   // principal point, so the synthetic field renders it exactly. 6 degrees moves points up to
