@@ -1,20 +1,22 @@
 #!/usr/bin/env python3
-"""Paired ATE comparison of two configurations replayed by scripts/weights.sh.
+"""Paired ATE (or 1 s RPE) comparison of two configurations replayed by scripts/weights.sh.
 
 weights.sh writes WORK/NAME/FLIGHT/stats.json. Name the runs PREFIX_GROUP_RUN, e.g.
 whole_data_f1.0 and sparse_data_f1.0 (GROUP: the datasets' style, RUN: the perturbation such as
 an F_threshold), and this script pairs every BASE_GROUP_RUN/FLIGHT with NEW_GROUP_RUN/FLIGHT.
 
-Per group it prints the mean ATE of each configuration over the paired runs and the mean over the
-pairs of log(ATE new / ATE base) with its standard error, and how many runs got worse or better.
-The simulated flights are chaotic (a 1 % change of F_threshold moves a photo flight by up to
-40 %), so a difference of a few per cent needs this spread beside it; the runs of one flight are
-correlated, so the error is a lower bound.
+Per group it prints the mean of the metric for each configuration over the paired runs and the
+mean over the pairs of log(new / base) with its standard error, and how many runs got worse or
+better. The simulated flights are chaotic (a 1 % change of F_threshold moves a photo flight's
+ATE by up to 40 %), so a difference of a few per cent needs this spread beside it; runs of one
+rendering (perturbations such as F_threshold) are correlated, so there the error is a lower
+bound: render more seeds instead (scripts/render_flights.sh).
 
 --metric rpe1s compares stats.json's accuracy.rpe_1s_m instead (the mean translation error over
-1 s segments): a per-frame change moves it 4-7x less chaotically than the ATE (per-run spread of
-the log-ratio under a rounding change about 4 % against 13-26 %: docs/performance.md, "An
-ensemble of seeds"), so it resolves changes of a few per cent with a few dozen runs.
+1 s segments): a per-frame change moves it about 4x less chaotically than the ATE (per-run sd of
+the log-ratio under a rounding change 4.6 % against 19 %: docs/performance.md, "An ensemble of
+seeds"), so it resolves changes of a few per cent with a few dozen runs. stats.json files written
+before it existed (2026-12-06) have no rpe_1s_m.
 
 Usage: ate_compare.py [--metric ate|rpe1s] WORK BASE_PREFIX NEW_PREFIX
 Exit status: 0, or 1 when no run pairs up.
@@ -73,17 +75,25 @@ def summary(pairs):
 def main(argv):
     args = argv[1:]
     metric = "ate"
-    if len(args) >= 2 and args[0] == "--metric":
+    if args and args[0].startswith("--metric="):
+        metric = args[0][len("--metric="):]
+        args = args[1:]
+    elif len(args) >= 2 and args[0] == "--metric":
         metric = args[1]
         args = args[2:]
-    if len(args) != 3 or metric not in METRICS:
+    if metric not in METRICS:
+        print("ate_compare: unknown --metric '%s' (ate or rpe1s)" % metric, file=sys.stderr)
+        print(__doc__.strip(), file=sys.stderr)
+        return 64
+    if len(args) != 3:
         print(__doc__.strip(), file=sys.stderr)
         return 64
     work, base, new = args
     key, label = METRICS[metric]
     groups = paired_runs(work, base, new, key)
     if not groups:
-        print("ate_compare: no run of %s_* in %s pairs with one of %s_*" % (base, work, new), file=sys.stderr)
+        print("ate_compare: no run of %s_* in %s pairs with one of %s_* holding %s" % (base, work, new, key),
+              file=sys.stderr)
         return 1
     print("| group | runs | mean %s %s [mm] | mean %s %s [mm] | mean log-ratio (se) | worse / better |" %
           (label, base, label, new))

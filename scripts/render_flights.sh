@@ -11,8 +11,8 @@
 #
 # Usage: scripts/render_flights.sh SEED procedural|photo OUT_DIR [FLIGHT...]
 #   writes OUT_DIR/<FLIGHT> for each flight (default MH01 MH02 MH03 V101 V102 V103 V201); a
-#   flight already complete there (its `.done` marker) is kept. About 60-150 s per flight on this
-#   machine, 0.5 GB each.
+#   flight already complete there with the same seed and style (its `.done` marker) is kept, any
+#   other is rendered again. About 60-150 s per flight on this machine, 0.5 GB each.
 # Environment: UMSVINS (binary, default build/host/board/host/umsvins), UMS_SHARED_DIR.
 set -euo pipefail
 
@@ -24,7 +24,10 @@ shift 3
 [[ "$seed" =~ ^[0-9]+$ ]] || { echo "render_flights: seed '$seed' is not a non-negative integer" >&2; exit 64; }
 case "$style" in
   procedural) style_args=() ;;
-  photo) style_args=(--style photo --texture-dataset "$shared/data/euroc/V1_01_easy_micro") ;;
+  photo)
+    textures="$shared/data/euroc/V1_01_easy_micro"
+    [[ -d "$textures/mav0" ]] || { echo "render_flights: photo style needs the real images $textures" >&2; exit 1; }
+    style_args=(--style photo --texture-dataset "$textures") ;;
   *) echo "render_flights: style '$style': procedural or photo" >&2; exit 64 ;;
 esac
 umsvins="${UMSVINS:-$root/build/host/board/host/umsvins}"
@@ -35,10 +38,11 @@ mkdir -p "$out"
 for f in $flights; do
   gt="$shared/data/euroc/groundtruth/${f}_GT.txt"
   [[ -f "$gt" ]] || { echo "render_flights: no ground truth $gt" >&2; exit 1; }
-  [[ -f "$out/$f/.done" ]] && continue
-  rm -rf "$out/$f"
+  stamp="seed $seed style $style duration 60"
+  [[ -f "$out/$f/.done" && "$(cat "$out/$f/.done")" == "$stamp" ]] && continue
+  rm -rf "${out:?}/$f"
   t0=$(date +%s)
-  "$umsvins" simulate --trajectory "$gt" --seed "$seed" --duration 60 "${style_args[@]}" --out "$out/$f" --quiet >/dev/null
-  touch "$out/$f/.done"
+  "$umsvins" simulate --trajectory "$gt" --seed "$seed" --duration 60 ${style_args[@]+"${style_args[@]}"} --out "$out/$f" --quiet >/dev/null
+  echo "$stamp" >"$out/$f/.done"
   echo "render_flights: $style seed $seed $f in $(( $(date +%s) - t0 )) s" >&2
 done

@@ -283,6 +283,7 @@ Accuracy evaluate_accuracy(const ReplayPipeline& pipeline, const hal::EurocReade
     const eval::Trajectory gt = eval::read_trajectory(reader.groundtruth_path());
     const eval::Trajectory est_in_gt = eval::to_frame(est, gt.frame, config.rig.cam[0].T_b_c);
     eval::MetricsOptions mo;
+    mo.rpe_times_s = {1.0, 5.0, 10.0};  // the first is stats.json's rpe_1s_m
     a.result = std::make_unique<eval::EvalResult>(eval::evaluate(est_in_gt, gt, mo));
     try {
       const eval::ModeTimeline timeline = mode_timeline_of(pipeline.estimator()->stats());
@@ -310,6 +311,7 @@ void write_accuracy_json(const Accuracy& a, JsonWriter& w) {
   for (const eval::RpeResult& r : a.result->rpe) {
     if (r.unit != eval::RpeUnit::kSeconds || r.delta != 1.0 || r.translation_m.count == 0) continue;
     w.value("rpe_1s_m", r.translation_m.mean, 7).value("rpe_1s_deg", r.rotation_deg.mean, 6);
+    break;
   }
   if (a.budget != nullptr) {
     w.begin_object("budget");

@@ -329,7 +329,9 @@ Frontend::StereoMatch Frontend::match_track(const LeftTrack& t, const Eigen::Vec
     }
     Eigen::Vector2f pr = start;
     if (klt_track(L, R, levels, options_.klt, t.uv, &pr, templates_.get(), t.slot) != Status::kOk) continue;
-    if (!had_match || options_.stereo_confirm_tracked) {
+    // Only the first try of a continued match, on levels_3d from next to the previous match, may
+    // skip the right->left check: the full-pyramid retry can travel far along the row.
+    if (!(had_match && h == 0) || options_.stereo_confirm_tracked) {
       ++m.confirmations;
       if (!confirmed(L, R, levels, t.uv, pr, options_.stereo_fb_max_px)) continue;
     }

@@ -53,10 +53,11 @@ struct FrontendOptions {
   int confirm_sparse_from_level = 0;
   float fb_max_px = 0.5f;              // px, forward-backward disagreement allowed (temporal)
   float stereo_fb_max_px = 1.0f;       // px, right->left confirmation must land this close
-  // A feature matched in the previous frame starts its left->right KLT next to that match, and the
-  // match is then checked against its epipolar line; true: it is also confirmed right->left like
-  // a new match. Off by default: over 28 simulated flights (7 x 2 seeds x 2 styles) the 1 s RPE
-  // did not move (+0.1 %, se 1.2 %) and the x86 front end fell 7 % (docs/performance.md, session 30).
+  // A feature matched in the previous frame first tracks into the right image on levels_3d from
+  // next to that match, and the match is then checked against its epipolar line; true: that match
+  // is also confirmed right->left, as new matches and full-pyramid retries always are. Off by
+  // default: over 28 simulated flights (7 x 2 seeds x 2 styles) the 1 s RPE did not move (+0.2 %
+  // and +0.8 %, se 1.1 and 1.7 %) and the x86 front end fell 7.6 % (docs/performance.md, session 30).
   bool stereo_confirm_tracked = false;
   float stereo_epipolar_max_px = 1.5f; // px in cam1, distance of a 3D match to its epipolar line
   int stereo_retry_interval = 4;       // frames between stereo retries of a track whose match failed (1 = every frame)
