@@ -37,7 +37,7 @@ def metric_m(path, key):
 
 
 def paired_runs(work, base, new, key="ate_rmse_m"):
-    """{group: [(run/flight, ate_base, ate_new)]} for the runs both prefixes hold."""
+    """{group: [(run/flight, value_base, value_new)]} for the runs both prefixes hold."""
     groups = {}
     for name in sorted(os.listdir(work)):
         if not name.startswith(base + "_"):
@@ -52,11 +52,11 @@ def paired_runs(work, base, new, key="ate_rmse_m"):
             b = os.path.join(other, flight, "stats.json")
             if not (os.path.isfile(a) and os.path.isfile(b)):
                 continue
-            ate_a, ate_b = metric_m(a, key), metric_m(b, key)
-            if ate_a is None or ate_b is None:
+            v_base, v_new = metric_m(a, key), metric_m(b, key)
+            if v_base is None or v_new is None:
                 print("ate_compare: %s or %s has no %s" % (a, b, key), file=sys.stderr)
                 continue
-            groups.setdefault(group, []).append((suffix + "/" + flight, ate_a, ate_b))
+            groups.setdefault(group, []).append((suffix + "/" + flight, v_base, v_new))
     return groups
 
 

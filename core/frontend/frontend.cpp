@@ -375,7 +375,7 @@ void Frontend::match_stereo(FrontendFrameStats* st) {
     if (!std::isfinite(guess.x())) guess = inf_ok ? Eigen::Vector2f(inf_px + stereo_offset_px_) : t.uv;
     t.right_guess = guess;
     t.stereo = false;
-    const bool had_match = std::isfinite(t.right_guess.x()) && t.stereo_prev;
+    const bool had_match = t.stereo_prev;
     const StereoMatch m = match_track(t, guess, had_match);
     st->stereo_confirmations += m.confirmations;
     const bool matched = m.matched;

@@ -1,6 +1,7 @@
 #include "core/frontend/frontend.hpp"
 #include "core/frontend/keyframe_selector.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -30,6 +31,22 @@ ums::RigCalibration synthetic_rig(int w, int h, double f) {
   rig.cam[1].T_b_c.translation() = Eigen::Vector3d(0.1, 0.0, 0.0);
   return rig;
 }
+
+// Error of the 3D features' stereo matches against a wall of known disparity (right = left - d):
+// the horizontal offset from -d and the vertical offset, in px.
+struct DisparityError {
+  double sq = 0.0;
+  int n = 0;
+  void add(const ums::FrameFeatures& out, double disparity_px) {
+    for (const auto& o : out.features) {
+      if (o.cls != ums::FeatureClass::k3D) continue;
+      const Eigen::Vector2f d = o.uv_right_px - o.uv_left_px;
+      sq += std::pow(static_cast<double>(d.x()) + disparity_px, 2) + std::pow(static_cast<double>(d.y()), 2);
+      ++n;
+    }
+  }
+  double rms_px() const { return std::sqrt(sq / std::max(n, 1)); }
+};
 
 }  // namespace
 
@@ -118,15 +135,9 @@ TEST_CASE("synthetic rectified pair: every stereo match has the true disparity a
   fr.left = left.view();
   fr.right = right.view();
   REQUIRE(fe.process(fr, nullptr, &out) == ums::Status::kOk);
-  double sq = 0;
-  int n = 0;
-  for (const auto& o : out.features) {
-    if (o.cls != ums::FeatureClass::k3D) continue;
-    const Eigen::Vector2f d = o.uv_right_px - o.uv_left_px;
-    sq += std::pow(static_cast<double>(d.x()) + disparity, 2) + std::pow(static_cast<double>(d.y()), 2);
-    ++n;
-  }
-  const double rms = std::sqrt(sq / std::max(n, 1));
+  DisparityError err;
+  err.add(out, disparity);
+  const double rms = err.rms_px();
   INFO("3D " << out.n_3d << " 2D-left " << out.n_2d_left << " 2D-right " << out.n_2d_right << " disparity RMS " << rms
              << " px, epipolar RMS " << out.stats.stereo_epipolar_rms_px);
   CHECK(out.n_3d >= 0.8 * static_cast<double>(out.features.size()));
@@ -146,8 +157,7 @@ TEST_CASE("stereo_confirm_tracked: tracked matches skip the right->left check an
     ums::Frontend fe(o, synthetic_rig(w, h, f));
     static ums::FrameFeatures out;
     int tracked_attempts = 0, tracked_confirmations = 0;
-    double sq = 0.0;
-    int n = 0;
+    DisparityError err;
     for (int k = 0; k < 4; ++k) {
       const ums::test::GreyImage left = tex.render(w, h, 0.0, Eigen::Vector2d(1.5 * k, 0.0));
       const ums::test::GreyImage right = tex.render(w, h, 0.0, Eigen::Vector2d(1.5 * k - disparity, 0.0));
@@ -162,18 +172,13 @@ TEST_CASE("stereo_confirm_tracked: tracked matches skip the right->left check an
       }
       tracked_attempts += out.stats.stereo_attempts;
       tracked_confirmations += out.stats.stereo_confirmations;
-      for (const auto& obs : out.features) {
-        if (obs.cls != ums::FeatureClass::k3D) continue;
-        const Eigen::Vector2f d = obs.uv_right_px - obs.uv_left_px;
-        sq += std::pow(static_cast<double>(d.x()) + disparity, 2) + std::pow(static_cast<double>(d.y()), 2);
-        ++n;
-      }
+      err.add(out, disparity);
       CHECK(out.n_3d >= 0.8 * static_cast<double>(out.features.size()));
     }
-    const double rms = std::sqrt(sq / std::max(n, 1));
+    const double rms = err.rms_px();
     INFO("confirm " << confirm << ": attempts " << tracked_attempts << ", confirmations " << tracked_confirmations
-                    << ", disparity RMS " << rms << " px over " << n);
-    CHECK(n >= 150);
+                    << ", disparity RMS " << rms << " px over " << err.n);
+    CHECK(err.n >= 150);
     CHECK(rms < 0.05);
     if (confirm) {
       CHECK(tracked_confirmations >= tracked_attempts);
