@@ -188,6 +188,46 @@ TEST_CASE("stereo_confirm_tracked: tracked matches skip the right->left check an
   }
 }
 
+TEST_CASE("stereo on a texture repeating along the row: a tracked match keeps its disparity, it does not slip a period") {
+  // The wall of the test above, but every patch has look-alikes 32 px apart along the epipolar
+  // line. A tracked feature's match starts next to its previous one; with or without the
+  // right->left check it must stay in its own period from frame to frame (a slip is >= 32 px).
+  const int w = 480, h = 320;
+  const double f = 400.0, disparity = 10.0, period = 32.0;
+  const ums::test::BlobTexture tex = ums::test::BlobTexture::periodic_x(w + 60, h, 44, period, 99u);
+  for (const bool confirm : {false, true}) {
+    ums::FrontendOptions o;
+    o.stereo_confirm_tracked = confirm;
+    ums::Frontend fe(o, synthetic_rig(w, h, f));
+    static ums::FrameFeatures out;
+    std::map<std::uint32_t, float> prev_disparity;
+    int compared = 0, slipped = 0;
+    for (int k = 0; k < 6; ++k) {
+      const ums::test::GreyImage left = tex.render(w, h, 0.0, Eigen::Vector2d(1.5 * k, 0.0));
+      const ums::test::GreyImage right = tex.render(w, h, 0.0, Eigen::Vector2d(1.5 * k - disparity, 0.0));
+      ums::StereoFrame fr;
+      fr.seq = static_cast<std::uint64_t>(k);
+      fr.left = left.view();
+      fr.right = right.view();
+      REQUIRE(fe.process(fr, nullptr, &out) == ums::Status::kOk);
+      std::map<std::uint32_t, float> disparity_now;
+      for (const auto& obs : out.features) {
+        if (obs.cls != ums::FeatureClass::k3D) continue;
+        const float d = obs.uv_left_px.x() - obs.uv_right_px.x();
+        disparity_now[obs.id] = d;
+        const auto it = prev_disparity.find(obs.id);
+        if (it == prev_disparity.end()) continue;
+        ++compared;
+        if (std::abs(d - it->second) > 0.5f * static_cast<float>(period)) ++slipped;
+      }
+      prev_disparity = disparity_now;
+    }
+    INFO("confirm " << confirm << ": " << compared << " tracked matches compared, " << slipped << " slipped a period");
+    CHECK(compared >= 300);
+    CHECK(slipped == 0);
+  }
+}
+
 TEST_CASE("IMU rotation hint: a 6 degree roll is tracked without a pyramid only with the hint") {
   // Roll about the optical axis of a distortion-free camera is an image rotation about the
   // principal point, so the synthetic field renders it exactly. 6 degrees moves points up to

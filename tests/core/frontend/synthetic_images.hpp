@@ -52,6 +52,18 @@ class BlobTexture {
     }
   }
 
+  // The same field made periodic along x with period_px: every blob repeated at multiples of the
+  // period over the region (a fence, a tiled wall: a row where every patch has look-alikes).
+  static BlobTexture periodic_x(int width, int height, int count_per_period, double period_px, std::uint32_t seed) {
+    BlobTexture base(static_cast<int>(period_px) - 120, height, count_per_period, seed);
+    BlobTexture out = base;
+    out.blobs_.clear();
+    for (const Blob& b : base.blobs_)
+      for (double x = b.c.x() - period_px * std::ceil(200.0 / period_px); x < width + 200.0; x += period_px)
+        out.blobs_.push_back(Blob{Eigen::Vector2d(x, b.c.y()), b.sigma, b.amp});
+    return out;
+  }
+
   // Renders the field after x' = R(angle) (x - pivot) + pivot + shift.
   GreyImage render(int width, int height, double angle_rad = 0.0, Eigen::Vector2d shift = Eigen::Vector2d::Zero(),
                    Eigen::Vector2d pivot = Eigen::Vector2d::Zero()) const {
