@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Paired ATE (or 1 s RPE) comparison of two configurations replayed by scripts/weights.sh.
+"""Paired ATE (or 1 s / 10 s RPE) comparison of two configurations replayed by scripts/weights.sh.
 
 weights.sh writes WORK/NAME/FLIGHT/stats.json. Name the runs PREFIX_GROUP_RUN, e.g.
 whole_data_f1.0 and sparse_data_f1.0 (GROUP: the datasets' style, RUN: the perturbation such as
@@ -18,7 +18,12 @@ the log-ratio under a rounding change 4.6 % against 19 %: docs/performance.md, "
 seeds"), so it resolves changes of a few per cent with a few dozen runs. stats.json files written
 before it existed (2026-12-06) have no rpe_1s_m.
 
-Usage: ate_compare.py [--metric ate|rpe1s] WORK BASE_PREFIX NEW_PREFIX
+--metric rpe10s compares accuracy.rpe_10s_m, the mean error over 10 s segments: it sees a change
+of the drift rate, which the 1 s RPE does not (fewer detections left the 1 s RPE unchanged and
+raised the 10 s RPE and the ATE: docs/performance.md, session 31), with about half the ATE's
+per-run spread. stats.json files written before 2026-12-07 have no rpe_10s_m.
+
+Usage: ate_compare.py [--metric ate|rpe1s|rpe10s] WORK BASE_PREFIX NEW_PREFIX
 Exit status: 0, or 1 when no run pairs up.
 """
 import json
@@ -27,7 +32,7 @@ import os
 import sys
 
 
-METRICS = {"ate": ("ate_rmse_m", "ATE"), "rpe1s": ("rpe_1s_m", "RPE 1 s")}
+METRICS = {"ate": ("ate_rmse_m", "ATE"), "rpe1s": ("rpe_1s_m", "RPE 1 s"), "rpe10s": ("rpe_10s_m", "RPE 10 s")}
 
 
 def metric_m(path, key):
@@ -82,7 +87,7 @@ def main(argv):
         metric = args[1]
         args = args[2:]
     if metric not in METRICS:
-        print("ate_compare: unknown --metric '%s' (ate or rpe1s)" % metric, file=sys.stderr)
+        print("ate_compare: unknown --metric '%s' (ate, rpe1s or rpe10s)" % metric, file=sys.stderr)
         print(__doc__.strip(), file=sys.stderr)
         return 64
     if len(args) != 3:

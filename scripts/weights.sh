@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Replays simulated flights under one configuration and prints one line per flight: the figures
-# behind docs/results.md "Weights" (ATE, the 1 s RPE, time to VIO after the first moving frame,
-# the alignment's counters, CPU / real time). The datasets come from `umsvins simulate` (both styles: see
+# behind docs/results.md "Weights" (ATE, the 1 s and 10 s RPE, time to VIO after the first moving
+# frame, the alignment's counters, CPU / real time). The datasets come from `umsvins simulate` (both styles: see
 # docs/results.md for the commands); replays use --deterministic, so a line is reproducible.
 #
 # Usage: scripts/weights.sh NAME DATA_DIR "key: value;key: value" [FLIGHT...]
@@ -52,9 +52,10 @@ for l in open(mav0 + "/state_groundtruth_estimate0/data.csv"):
 vio = next((m["t_s"] for m in s.get("modes", []) if m.get("to") == "VIO"), None)
 delay = "never" if vio is None else ("%.2f" % max(0.0, vio - move) if move is not None else "no motion")
 cpu, dur = s.get("processing_cpu_s", 0.0), s.get("duration_s", 0.0)
-print("%-10s %-6s ATE %.4f m  RPE 1 s %.2f mm  VIO at %s s, %s s after the first motion  align %s tried / %s unobservable"
-      "  CPU/real %.3f" % (name, flight, s.get("accuracy", {}).get("ate_rmse_m", float("nan")),
-                           1000 * s.get("accuracy", {}).get("rpe_1s_m", float("nan")),
+acc = s.get("accuracy", {})
+print("%-10s %-6s ATE %.4f m  RPE 1 s %.2f mm  10 s %.2f mm  VIO at %s s, %s s after the first motion  align %s tried / %s unobservable"
+      "  CPU/real %.3f" % (name, flight, acc.get("ate_rmse_m", float("nan")),
+                           1000 * acc.get("rpe_1s_m", float("nan")), 1000 * acc.get("rpe_10s_m", float("nan")),
                            "-" if vio is None else "%.2f" % vio, delay, e.get("align_attempts"),
                            e.get("align_unobservable"), cpu / dur if dur else float("nan")))
 PY

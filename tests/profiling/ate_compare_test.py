@@ -10,11 +10,13 @@ import tempfile
 SCRIPT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "scripts", "ate_compare.py")
 
 
-def write_run(work, name, flight, ate_m, rpe_m=None):
+def write_run(work, name, flight, ate_m, rpe_m=None, rpe10_m=None):
     os.makedirs(os.path.join(work, name, flight))
     stats = {"accuracy": {"ate_rmse_m": ate_m}} if ate_m is not None else {"accuracy": {}}
     if rpe_m is not None:
         stats["accuracy"]["rpe_1s_m"] = rpe_m
+    if rpe10_m is not None:
+        stats["accuracy"]["rpe_10s_m"] = rpe10_m
     with open(os.path.join(work, name, flight, "stats.json"), "w") as f:
         json.dump(stats, f)
 
@@ -32,10 +34,10 @@ def main():
             failures.append(what)
 
     with tempfile.TemporaryDirectory() as work:
-        write_run(work, "base_data_f1.0", "MH01", 0.002, 0.0010)
-        write_run(work, "base_data_f1.0", "V101", 0.004, 0.0020)
-        write_run(work, "new_data_f1.0", "MH01", 0.001, 0.0011)   # ATE halved, RPE +10 %
-        write_run(work, "new_data_f1.0", "V101", 0.004, 0.0022)   # ATE the same, RPE +10 %
+        write_run(work, "base_data_f1.0", "MH01", 0.002, 0.0010, 0.004)
+        write_run(work, "base_data_f1.0", "V101", 0.004, 0.0020, 0.008)
+        write_run(work, "new_data_f1.0", "MH01", 0.001, 0.0011, 0.008)   # ATE halved, RPE 1 s +10 %, 10 s doubled
+        write_run(work, "new_data_f1.0", "V101", 0.004, 0.0022, 0.008)   # ATE the same, RPE 1 s +10 %, 10 s the same
         write_run(work, "base_ph_f1.0", "MH01", 0.010)
         write_run(work, "new_ph_f1.0", "MH01", 0.020)     # doubled
         write_run(work, "base_ph_f1.0", "V102", 0.010)    # no partner: left out
@@ -65,6 +67,13 @@ def main():
         check("ph" not in rows and "has no rpe_1s_m" in err, "rpe1s ph: %s, %r" % (rows.get("ph"), err))
         code, _, err = run("--metric", "rmse", work, "base", "new")
         check(code == 64 and "unknown --metric 'rmse'" in err, "unknown metric: exit %d, %r" % (code, err[:80]))
+        # The 10 s RPE: doubled and the same, as the data ATE halved and the same (mirrored).
+        code, out10, err = run("--metric", "rpe10s", work, "base", "new")
+        rows10 = {line.split("|")[1].strip(): [c.strip() for c in line.split("|")[2:-1]]
+                  for line in out10.splitlines() if line.startswith("| data")}
+        check(code == 0 and "mean RPE 10 s base [mm]" in out10, "rpe10s: exit %d, %r" % (code, out10[:120]))
+        check(rows10.get("data") == ["2", "6.000", "8.000", "%+.1f %% (%.1f)" % (-half / 2, -half / 2), "1 / 0"],
+              "rpe10s data row %s" % rows10.get("data"))
         code, out2, _ = run("--metric=rpe1s", work, "base", "new")
         check(code == 0 and out2 == out, "--metric=rpe1s: exit %d" % code)
         code, out, err = run(work, "base", "other")
