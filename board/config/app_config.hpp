@@ -24,6 +24,7 @@ struct AppConfig {
   double min_dist_px = 25.0;            // px, minimum distance between features (VINS min_dist)
   double f_threshold_px = 1.0;          // px, epipolar RANSAC inlier threshold (VINS F_threshold)
   int detect_min_missing = 1;           // features missing before a new detection (ours; <= max_cnt)
+  int detect_interval = 2;              // frames: a top-up at most every this many (ours; 1: any frame)
   int klt_sparse_from_level = 4;        // KLT levels from this one up iterate on every other pixel (4: none)
   int klt_confirm_sparse_from_level = 0;  // the same for the forward-backward confirmation tracks
   bool stereo_confirm_tracked = false;  // a tracked feature's stereo match also confirmed right->left

@@ -16,6 +16,7 @@ FrontendOptions frontend_options_from(const AppConfig& config) {
   FrontendOptions o;
   o.max_cnt = config.max_cnt;
   o.detect_min_missing = config.detect_min_missing;
+  o.detect_interval = config.detect_interval;
   o.klt.sparse_from_level = config.klt_sparse_from_level;
   o.confirm_sparse_from_level = config.klt_confirm_sparse_from_level;
   o.stereo_confirm_tracked = config.stereo_confirm_tracked;

@@ -60,6 +60,7 @@ void FrontendOptions::validate() const {
   }
   if (stereo_retry_interval < 1 || stereo_retry_interval > 1000) fail("stereo_retry_interval", stereo_retry_interval);
   if (detect_min_missing < 1 || detect_min_missing > max_cnt) fail("detect_min_missing", detect_min_missing);
+  if (detect_interval < 1 || detect_interval > 1000) fail("detect_interval", detect_interval);
   if (!(fb_max_px > 0.0f)) fail("fb_max_px", static_cast<double>(fb_max_px));
   if (!(stereo_fb_max_px > 0.0f)) fail("stereo_fb_max_px", static_cast<double>(stereo_fb_max_px));
   if (!(stereo_epipolar_max_px > 0.0f)) fail("stereo_epipolar_max_px", static_cast<double>(stereo_epipolar_max_px));
@@ -263,13 +264,14 @@ void Frontend::thin_crowded(FrontendFrameStats* st) {
 
 int Frontend::detection_budget(std::size_t tracks_in_camera) const {
   const int missing = options_.max_cnt - static_cast<int>(left_.size() + right_.size());
-  if (missing < options_.detect_min_missing) return 0;
+  if (missing < options_.detect_min_missing || !detection_due_) return 0;
   return std::max(0, std::min(missing, static_cast<int>(kCap - tracks_in_camera)));
 }
 
 void Frontend::detect_left(FrontendFrameStats* st) {
   const int budget = detection_budget(left_.size());
   if (budget == 0) return;
+  detected_ = true;
   const std::size_t first_new = left_.size();
   const int found = detector_->detect(pyr_[cur_][0]->level(0), budget, options_.detector, new_px_);
   for (int i = 0; i < found; ++i) {
@@ -403,6 +405,7 @@ void Frontend::match_stereo(FrontendFrameStats* st) {
 void Frontend::detect_right(FrontendFrameStats* st) {
   const int budget = detection_budget(right_.size());
   if (budget == 0) return;
+  detected_ = true;
   // Cover the right image where left features are (3D: their match; 2D-left: where the match
   // was sought) and where 2D-right tracks already are.
   detector_->clear_mask();
@@ -504,6 +507,8 @@ Status Frontend::process(const StereoFrame& frame, const Eigen::Quaterniond* q_c
     right_.clear();
   }
   clock.lap(&st.track_ms);  // the clearing of the else branches; track_left/right lapped themselves
+  detection_due_ = !has_prev_ || frames_since_detection_ + 1 >= options_.detect_interval;
+  detected_ = false;
   thin_crowded(&st);
   detect_left(&st);
   clock.lap(&st.detect_ms);
@@ -517,6 +522,7 @@ Status Frontend::process(const StereoFrame& frame, const Eigen::Quaterniond* q_c
   }
   for (LeftTrack& t : left_) ++t.length;
   for (RightTrack& t : right_) ++t.length;
+  frames_since_detection_ = detected_ ? 0 : frames_since_detection_ + 1;
   write_output(frame, out);
 
   prev_right_valid_ = right_valid;

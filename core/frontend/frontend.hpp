@@ -67,6 +67,12 @@ struct FrontendOptions {
                                        // saved 11 % of the pipeline's CPU on the 7 simulated flights
                                        // and raised their mean ATE from 13.7 to 14.4 mm
                                        // (docs/frontend.md): a knob for slow boards, off by default
+  // Frames: a top-up runs at most every this many frames (1: any). Every other frame halves the
+  // detections; a track lost waits one frame at most for its replacement, which the drift did
+  // not see over 28 simulated flights, unlike detect_min_missing's longer waits (aarch64 front end
+  // on the clips -19 / -22 %; 1 s RPE -1.0 %, 10 s RPE +1.5 % (se 2.7), ATE +2.3 % (se 3.4):
+  // docs/performance.md, session 31).
+  int detect_interval = 2;
   bool use_ransac = true;              // temporal epipolar RANSAC per camera
   bool measure_stages = true;          // time the sub-stages into FrontendFrameStats::*_ms (two steady-clock reads per stage, ~11 per frame)
   KltOptions klt;
@@ -136,7 +142,8 @@ class Frontend {
   void track_right(const Eigen::Matrix3f* R_curr_prev, FrontendFrameStats* st, StageClock* clock);
   void thin_crowded(FrontendFrameStats* st);
   // New corners one camera may add (0: none): what max_cnt lacks, bounded by the camera's free
-  // track slots; 0 while fewer than detect_min_missing are missing.
+  // track slots; 0 while fewer than detect_min_missing are missing, and in the frames
+  // detect_interval leaves out after the last top-up.
   int detection_budget(std::size_t tracks_in_camera) const;
   void detect_left(FrontendFrameStats* st);
   void match_stereo(FrontendFrameStats* st);
@@ -171,6 +178,9 @@ class Frontend {
   std::unique_ptr<ImagePyramid> pyr_[2][2];
   int cur_ = 0;
   bool has_prev_ = false;
+  int frames_since_detection_ = 0;  // frames since the last one that detected (0: this one)
+  bool detection_due_ = true;       // this frame may top up (detect_interval)
+  bool detected_ = false;           // this frame ran a detection
   bool prev_right_valid_ = false;
   std::unique_ptr<CornerDetector> detector_;
   // Left tracks' KLT templates in the left pyramid they sit in: max_cnt slots per frame parity,

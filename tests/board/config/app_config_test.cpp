@@ -166,21 +166,24 @@ TEST_CASE("config from the dataset's calibration keeps it and the defaults", "[c
   CHECK_NOTHROW(config.validate());
 }
 
-TEST_CASE("the KLT's sparse levels and the stereo confirmation are keys, and without them the front end's defaults hold", "[config]") {
+TEST_CASE("the KLT's sparse levels, the stereo confirmation and the detection interval are keys, and without them the front end's defaults hold", "[config]") {
   const std::string dir = ums::test::make_temp_dir("config_klt_sparse");
   std::vector<std::string> warnings;
   const ums::AppConfig c = ums::load_config(
       write_vins_config(dir, std::string(kVinsConfig) +
-                                 "klt_sparse_from_level: 2\nklt_confirm_sparse_from_level: 1\nstereo_confirm_tracked: 1\n"),
+                                 "klt_sparse_from_level: 2\nklt_confirm_sparse_from_level: 1\nstereo_confirm_tracked: 1\n"
+                                 "detect_interval: 3\n"),
       micro_calibration(), &warnings);
   CHECK(warnings.empty());
   CHECK(c.klt_sparse_from_level == 2);
   CHECK(c.klt_confirm_sparse_from_level == 1);
   CHECK(c.stereo_confirm_tracked);
+  CHECK(c.detect_interval == 3);
   const ums::AppConfig d = ums::config_from_calibration(micro_calibration());
   CHECK(d.klt_sparse_from_level == ums::FrontendOptions{}.klt.sparse_from_level);
   CHECK(d.klt_confirm_sparse_from_level == ums::FrontendOptions{}.confirm_sparse_from_level);
   CHECK(d.stereo_confirm_tracked == ums::FrontendOptions{}.stereo_confirm_tracked);
+  CHECK(d.detect_interval == ums::FrontendOptions{}.detect_interval);
 }
 
 TEST_CASE("a VINS-Fusion stereo-IMU config is read with its camodocal files and no warnings", "[config]") {
@@ -310,6 +313,7 @@ TEST_CASE("each invalid value stops with file, key, value and the allowed range"
       {"max_cnt: 150", "max_cnt: 150.5", "key 'max_cnt': value 150.5, allowed 1.."},
       {"max_cnt: 150", "max_cnt: many", "key 'max_cnt': value 'many', allowed 1.."},
       {"max_cnt: 150", "max_cnt: 150\ndetect_min_missing: 0", "key 'detect_min_missing': value 0, allowed 1.."},
+      {"max_cnt: 150", "max_cnt: 150\ndetect_interval: 0", "key 'detect_interval': value 0, allowed 1..1000 frames"},
       {"max_cnt: 150", "max_cnt: 150\nklt_sparse_from_level: 5", "key 'klt_sparse_from_level': value 5, allowed 0..4"},
       {"max_cnt: 150", "max_cnt: 150\nklt_confirm_sparse_from_level: -1",
        "key 'klt_confirm_sparse_from_level': value -1, allowed 0..4"},

@@ -423,6 +423,38 @@ TEST_CASE("sub-stage times (EuRoC micro): non-negative, sum within the call's wa
   if (ums::alloc_counter_available()) CHECK(allocs_after_first == 0);
 }
 
+TEST_CASE("detect_interval: a top-up at most every that many frames (EuRoC micro)", "[slow]") {
+  const ums::test::EurocPairs data = ums::test::load_euroc_micro();
+  static ums::FrameFeatures out;
+  // Frames after the first that added features, and the fewest frames between two of them.
+  auto run = [&](int interval, int* detect_frames, int* closest) {
+    ums::FrontendOptions opt;
+    opt.detect_interval = interval;
+    ums::Frontend fe(opt, ums::test::euroc_rig());
+    *detect_frames = 0;
+    *closest = 1000;
+    int last = 0;
+    for (std::size_t i = 0; i < data.size(); ++i) {
+      REQUIRE(fe.process(data.frame(i), nullptr, &out) == ums::Status::kOk);
+      if (i == 0 || out.stats.new_left + out.stats.new_right == 0) continue;
+      ++*detect_frames;
+      *closest = std::min(*closest, static_cast<int>(i) - last);
+      last = static_cast<int>(i);
+    }
+  };
+  int frames_1 = 0, closest_1 = 0, frames_3 = 0, closest_3 = 0;
+  run(1, &frames_1, &closest_1);
+  run(3, &frames_3, &closest_3);
+  std::printf("[frontend] top-ups after frame 1: %d frames (closest %d apart) every frame, %d (closest %d) with "
+              "detect_interval 3\n", frames_1, closest_1, frames_3, closest_3);
+  CHECK(closest_1 == 1);  // at rest a few tracks are lost per frame and topped up at once
+  CHECK(closest_3 >= 3);
+  CHECK(frames_3 < frames_1);
+  ums::FrontendOptions bad;
+  bad.detect_interval = 0;
+  CHECK_THROWS_AS(ums::Frontend(bad, ums::test::euroc_rig()), std::invalid_argument);
+}
+
 TEST_CASE("detect_min_missing: no detection until that many of max_cnt features are missing (EuRoC micro)", "[slow]") {
   const ums::test::EurocPairs data = ums::test::load_euroc_micro();
   static ums::FrameFeatures out;
