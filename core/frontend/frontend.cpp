@@ -262,6 +262,13 @@ void Frontend::thin_crowded(FrontendFrameStats* st) {
   left_.resize(w);
 }
 
+bool Frontend::detection_due() const {
+  if (!has_prev_ || frames_since_detection_ + 1 >= options_.detect_interval) return true;
+  // A frame that lost most of its tracks (blur, occlusion) does not wait for the interval: it
+  // would go to the estimator nearly empty.
+  return 2 * static_cast<int>(left_.size() + right_.size()) < options_.max_cnt;
+}
+
 int Frontend::detection_budget(std::size_t tracks_in_camera) const {
   const int missing = options_.max_cnt - static_cast<int>(left_.size() + right_.size());
   if (missing < options_.detect_min_missing || !detection_due_) return 0;
@@ -507,7 +514,7 @@ Status Frontend::process(const StereoFrame& frame, const Eigen::Quaterniond* q_c
     right_.clear();
   }
   clock.lap(&st.track_ms);  // the clearing of the else branches; track_left/right lapped themselves
-  detection_due_ = !has_prev_ || frames_since_detection_ + 1 >= options_.detect_interval;
+  detection_due_ = detection_due();
   detected_ = false;
   thin_crowded(&st);
   detect_left(&st);
@@ -522,7 +529,7 @@ Status Frontend::process(const StereoFrame& frame, const Eigen::Quaterniond* q_c
   }
   for (LeftTrack& t : left_) ++t.length;
   for (RightTrack& t : right_) ++t.length;
-  frames_since_detection_ = detected_ ? 0 : frames_since_detection_ + 1;
+  frames_since_detection_ = detected_ ? 0 : std::min(frames_since_detection_ + 1, options_.detect_interval);
   write_output(frame, out);
 
   prev_right_valid_ = right_valid;

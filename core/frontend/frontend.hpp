@@ -145,6 +145,9 @@ class Frontend {
   // track slots; 0 while fewer than detect_min_missing are missing, and in the frames
   // detect_interval leaves out after the last top-up.
   int detection_budget(std::size_t tracks_in_camera) const;
+  // This frame may top up: the first frame, detect_interval frames after the last top-up, or
+  // fewer than half of max_cnt tracks left.
+  bool detection_due() const;
   void detect_left(FrontendFrameStats* st);
   void match_stereo(FrontendFrameStats* st);
   struct StereoMatch {

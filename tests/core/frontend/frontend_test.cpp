@@ -48,6 +48,19 @@ struct DisparityError {
   double rms_px() const { return std::sqrt(sq / std::max(n, 1)); }
 };
 
+// Frame k of a fronto-parallel wall of the given disparity sliding shift_px per frame to the
+// right, through the front end.
+ums::Status process_wall(ums::Frontend* fe, const ums::test::BlobTexture& tex, int w, int h, int k, double shift_px,
+                         double disparity_px, ums::FrameFeatures* out) {
+  const ums::test::GreyImage left = tex.render(w, h, 0.0, Eigen::Vector2d(shift_px * k, 0.0));
+  const ums::test::GreyImage right = tex.render(w, h, 0.0, Eigen::Vector2d(shift_px * k - disparity_px, 0.0));
+  ums::StereoFrame fr;
+  fr.seq = static_cast<std::uint64_t>(k);
+  fr.left = left.view();
+  fr.right = right.view();
+  return fe->process(fr, nullptr, out);
+}
+
 }  // namespace
 
 TEST_CASE("EuRoC micro (real, at rest): >= 100 3D features, tracks >= 20 frames, epipolar-consistent stereo, no allocation", "[slow]") {
@@ -159,13 +172,7 @@ TEST_CASE("stereo_confirm_tracked: tracked matches skip the right->left check an
     int tracked_attempts = 0, tracked_confirmations = 0;
     DisparityError err;
     for (int k = 0; k < 4; ++k) {
-      const ums::test::GreyImage left = tex.render(w, h, 0.0, Eigen::Vector2d(1.5 * k, 0.0));
-      const ums::test::GreyImage right = tex.render(w, h, 0.0, Eigen::Vector2d(1.5 * k - disparity, 0.0));
-      ums::StereoFrame fr;
-      fr.seq = static_cast<std::uint64_t>(k);
-      fr.left = left.view();
-      fr.right = right.view();
-      REQUIRE(fe.process(fr, nullptr, &out) == ums::Status::kOk);
+      REQUIRE(process_wall(&fe, tex, w, h, k, 1.5, disparity, &out) == ums::Status::kOk);
       if (k == 0) {
         CHECK(out.stats.stereo_confirmations >= out.n_3d);  // new: every match confirmed
         continue;
@@ -203,13 +210,7 @@ TEST_CASE("stereo on a texture repeating along the row: a tracked match keeps it
     std::map<std::uint32_t, float> prev_disparity;
     int compared = 0, slipped = 0;
     for (int k = 0; k < 6; ++k) {
-      const ums::test::GreyImage left = tex.render(w, h, 0.0, Eigen::Vector2d(1.5 * k, 0.0));
-      const ums::test::GreyImage right = tex.render(w, h, 0.0, Eigen::Vector2d(1.5 * k - disparity, 0.0));
-      ums::StereoFrame fr;
-      fr.seq = static_cast<std::uint64_t>(k);
-      fr.left = left.view();
-      fr.right = right.view();
-      REQUIRE(fe.process(fr, nullptr, &out) == ums::Status::kOk);
+      REQUIRE(process_wall(&fe, tex, w, h, k, 1.5, disparity, &out) == ums::Status::kOk);
       std::map<std::uint32_t, float> disparity_now;
       for (const auto& obs : out.features) {
         if (obs.cls != ums::FeatureClass::k3D) continue;
@@ -449,10 +450,31 @@ TEST_CASE("detect_interval: a top-up at most every that many frames (EuRoC micro
               "detect_interval 3\n", frames_1, closest_1, frames_3, closest_3);
   CHECK(closest_1 == 1);  // at rest a few tracks are lost per frame and topped up at once
   CHECK(closest_3 >= 3);
+  CHECK(frames_3 > 0);
   CHECK(frames_3 < frames_1);
   ums::FrontendOptions bad;
   bad.detect_interval = 0;
   CHECK_THROWS_AS(ums::Frontend(bad, ums::test::euroc_rig()), std::invalid_argument);
+}
+
+TEST_CASE("detect_interval: a frame that lost most of its tracks tops up at once, whatever the interval") {
+  // Frame 0 detects on one wall; frame 1 shows another (every track lost) right after that
+  // top-up, when the interval would skip it.
+  const int w = 480, h = 320;
+  const double f = 400.0, disparity = 10.0;
+  const ums::test::BlobTexture wall_a(w + 40, h, 900, 4242u), wall_b(w + 40, h, 900, 777u);
+  for (const int interval : {1, 2, 1000}) {
+    ums::FrontendOptions o;
+    o.detect_interval = interval;
+    ums::Frontend fe(o, synthetic_rig(w, h, f));
+    static ums::FrameFeatures out;
+    for (int k = 0; k < 2; ++k) {
+      REQUIRE(process_wall(&fe, k == 0 ? wall_a : wall_b, w, h, k, 0.0, disparity, &out) == ums::Status::kOk);
+    }
+    INFO("interval " << interval << ": frame 1 holds " << out.features.size() << " features, " << out.stats.new_left
+                     << " new left");
+    CHECK(out.stats.new_left >= 50);  // 67 here: the second wall's corners, at any interval
+  }
 }
 
 TEST_CASE("detect_min_missing: no detection until that many of max_cnt features are missing (EuRoC micro)", "[slow]") {
@@ -462,6 +484,7 @@ TEST_CASE("detect_min_missing: no detection until that many of max_cnt features 
   auto run = [&](int min_missing, int* detect_frames, int* fewest_missing) {
     ums::FrontendOptions opt;
     opt.detect_min_missing = min_missing;
+    opt.detect_interval = 1;  // any frame may top up: the count alone decides
     ums::Frontend fe(opt, ums::test::euroc_rig());
     *detect_frames = 0;
     *fewest_missing = opt.max_cnt;
