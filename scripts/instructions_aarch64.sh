@@ -199,6 +199,11 @@ symbol_args() {  # binary -> the plugin's main= and fn= arguments, from nm (C++ 
 count_aarch64() {  # dataset tag -> "frames frontend backend pipeline process" (M per frame)
   local ds="$1" tag="$2" args
   args=$(symbol_args "$arm_umsvins")
+  local n_fns
+  n_fns=$(grep -o ',fn=' <<<"$args" | wc -l)
+  # The plugin's table (kMaxFns in scripts/qemu_insn_stages.c): a prefix such as
+  # ums::solver::Problem::linearize also matches linearize_landmark, linearize_prior, ...
+  [[ $n_fns -le 64 ]] || { echo "instructions_aarch64: the stages and --function prefixes match $n_fns functions; the plugin follows at most 64 (use longer prefixes)" >&2; exit 64; }
   local model_args=""
   [[ $cycles -eq 1 ]] && model_args=",blocks=$work/$tag.blocks,block_stage=pipeline,$cache_args"
   qemu-aarch64 -cpu cortex-a72 -L / -plugin "$plugin,out=$work/$tag.counts,$args$model_args" "$arm_umsvins" replay "$ds" \

@@ -40,7 +40,7 @@
 
 QEMU_PLUGIN_EXPORT int qemu_plugin_version = QEMU_PLUGIN_VERSION;
 
-enum { kMaxFns = 16, kMaxLabels = 8, kMaxVcpus = 64, kMaxDepth = 256 };
+enum { kMaxFns = 64, kMaxLabels = 8, kMaxVcpus = 64, kMaxDepth = 256 };
 
 typedef struct {
   int label_index;
