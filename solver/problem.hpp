@@ -271,6 +271,17 @@ class Problem {
   bool predicted_converged(LmState& s, double model_change);
   bool candidate_converged(LmState& s, double step_norm, double cand_cost);
   bool accept_step(LmState& s, double cand_cost, double relative_decrease);
+  // The candidate's cost, from the gradient pass that accepting it would run next when there is
+  // one (gradient_pass_follows): one sweep over the residuals instead of two. The iterate's
+  // gradient terms are kept aside meanwhile and put back unless the candidate is accepted.
+  bool evaluate_candidate(const LmState& s, double* cost);
+  bool step_budget_spent(const LmState& s) const;    // accepting uses the last permitted step
+  bool last_permitted_step(const LmState& s) const;  // accepting ends the solve unlinearized
+  bool gradient_pass_follows(const LmState& s) const;
+  bool candidate_takes_gradient_pass(const LmState& s) const;  // ... and the options allow it
+  void keep_gradient_terms();
+  void restore_gradient_terms();
+  void drop_candidate_linearization();  // the candidate is not accepted: the iterate's terms again
   // Solves the damped system (lm_scale = 1/radius; 0 for Gauss-Newton); false on failure.
   bool compute_step(double lm_scale, double* model_cost_change);
   void form_reduced_system(double lm_scale, bool damp);
@@ -374,6 +385,14 @@ class Problem {
   bool lift_used_[capacity::kMaxCouplingsPerLandmark] = {};
   int lift_host_slot_ = -1;
   bool gradient_pass_ = false;  // set by linearize_gradient() while it runs
+  // evaluate_candidate(): the iterate's gradient terms while the candidate's gradient pass holds
+  // b_, g_l, bsep_ and the separated linearization point; candidate_linearized_: that pass ran.
+  DenseVector kept_b_;
+  DenseVector kept_bsep_;
+  double kept_gl_[capacity::kMaxEliminatedBlocks][3] = {};
+  double kept_lin_x_[capacity::kMaxParameterBlocks][capacity::kMaxBlockAmbientSize] = {};
+  bool kept_sep_valid_ = false;
+  bool candidate_linearized_ = false;
 
   // Step computation.
   DenseMatrix S_;

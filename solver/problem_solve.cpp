@@ -123,14 +123,18 @@ bool Problem::iterate(LmState& s) {
   const double step_norm = apply_candidate();
   double cand_cost = 0.0;
   kept_write_ = 1 - kept_cur_;  // the candidate's residuals: current if it is accepted
-  if (!linearize(false, &cand_cost)) cand_cost = std::numeric_limits<double>::max();
+  if (!evaluate_candidate(s, &cand_cost)) cand_cost = std::numeric_limits<double>::max();
   kept_write_ = -1;
-  if (candidate_converged(s, step_norm, cand_cost)) return false;
+  if (candidate_converged(s, step_norm, cand_cost)) {
+    drop_candidate_linearization();
+    return false;
+  }
   const double relative_decrease = (s.x_cost - cand_cost) / mcc;
   const bool accept = s.lm ? relative_decrease > s.options.min_relative_decrease
                            : cand_cost < std::numeric_limits<double>::max();
   if (accept) return accept_step(s, cand_cost, relative_decrease);
   restore_values();
+  drop_candidate_linearization();
   if (s.stale_matrix) return refresh_matrix(s);
   s.shrink();
   return true;
@@ -242,8 +246,8 @@ bool Problem::accept_step(LmState& s, double cand_cost, double relative_decrease
   // The last permitted step: the loop's next tests end the solve before any of them reads
   // the Jacobians, so linearizing here would only be thrown away (the time test still comes
   // first, as in the loop). A window solve capped at 3 iterations saves 1 of its 7 passes.
-  const bool last_step = o.max_successful_steps > 0 && s.summary.successful_steps + 1 >= o.max_successful_steps;
-  if (s.iteration >= o.max_iterations || last_step) {
+  const bool last_step = step_budget_spent(s);
+  if (last_permitted_step(s)) {
     ++s.summary.successful_steps;
     if (seconds_since(s.t0) >= o.max_time_s)
       return s.end(SolverStatus::kTimeBudget, Termination::kTimeBudget, s.x_cost + s.fixed);
@@ -255,7 +259,10 @@ bool Problem::accept_step(LmState& s, double cand_cost, double relative_decrease
   // After the first accepted step only: later ones are far from a warm start, where a matrix
   // that old would slow the convergence.
   const bool gradient_only = o.reuse_gauss_newton_matrix && s.summary.successful_steps == 0;
-  const bool linearized = gradient_only ? linearize_gradient(&s.x_cost) : linearize(true, &s.x_cost);
+  // The candidate's own pass was this gradient pass (evaluate_candidate): its cost is x_cost.
+  const bool linearized = candidate_linearized_ ||
+                          (gradient_only ? linearize_gradient(&s.x_cost) : linearize(true, &s.x_cost));
+  candidate_linearized_ = false;
   if (!linearized) {
     restore_values();
     kept_cur_ = 1 - kept_cur_;
@@ -272,6 +279,67 @@ bool Problem::accept_step(LmState& s, double cand_cost, double relative_decrease
                       s.radius / std::max(1.0 / 3.0, 1.0 - q * q * q));
   s.decrease_factor = 2.0;
   return true;
+}
+
+bool Problem::step_budget_spent(const LmState& s) const {
+  const SolverOptions& o = s.options;
+  return o.max_successful_steps > 0 && s.summary.successful_steps + 1 >= o.max_successful_steps;
+}
+
+bool Problem::last_permitted_step(const LmState& s) const {
+  return s.iteration >= s.options.max_iterations || step_budget_spent(s);
+}
+
+// accept_step() would form the gradient alone at the candidate (the first accepted step with
+// reuse_gauss_newton_matrix), and not end the solve first.
+bool Problem::gradient_pass_follows(const LmState& s) const {
+  return s.options.reuse_gauss_newton_matrix && s.summary.successful_steps == 0 && !last_permitted_step(s);
+}
+
+bool Problem::candidate_takes_gradient_pass(const LmState& s) const {
+  return s.options.gradient_pass_on_candidate && gradient_pass_follows(s);
+}
+
+// The candidate's residuals with their Jacobians when accepting it would run the gradient pass
+// anyway: the cost pass is that pass, and nothing changes but the work (the same residuals and
+// the same sums in the same order). A pass that fails leaves the decision to the plain cost pass,
+// as before, whose acceptance then runs the gradient pass itself.
+bool Problem::evaluate_candidate(const LmState& s, double* cost) {
+  candidate_linearized_ = false;
+  if (candidate_takes_gradient_pass(s)) {
+    keep_gradient_terms();
+    candidate_linearized_ = linearize_gradient(cost);
+    if (candidate_linearized_) return true;
+    restore_gradient_terms();
+  }
+  return linearize(false, cost);
+}
+
+void Problem::drop_candidate_linearization() {
+  if (!candidate_linearized_) return;
+  candidate_linearized_ = false;
+  restore_gradient_terms();
+}
+
+// What a gradient pass writes: b, g_l, bsep and, when hinted, the separated linearization point.
+void Problem::keep_gradient_terms() {
+  kept_b_ = b_;
+  if (hinted_) kept_bsep_ = bsep_.head(n_front_);
+  for (int l = 0; l < num_lm_; ++l)
+    for (int i = 0; i < 3; ++i) kept_gl_[l][i] = gl_[l][i];
+  kept_sep_valid_ = sep_valid_;
+  if (!hinted_) return;
+  for (int i = 0; i < num_blocks_; ++i) std::copy(lin_x_[i], lin_x_[i] + blocks_[i].ambient, kept_lin_x_[i]);
+}
+
+void Problem::restore_gradient_terms() {
+  b_ = kept_b_;
+  if (hinted_) bsep_.head(n_front_) = kept_bsep_;
+  for (int l = 0; l < num_lm_; ++l)
+    for (int i = 0; i < 3; ++i) gl_[l][i] = kept_gl_[l][i];
+  sep_valid_ = kept_sep_valid_;
+  if (!hinted_) return;
+  for (int i = 0; i < num_blocks_; ++i) std::copy(kept_lin_x_[i], kept_lin_x_[i] + blocks_[i].ambient, lin_x_[i]);
 }
 
 // The values the solve returns, so that solved_residuals_current() can tell whether they moved.

@@ -41,6 +41,11 @@ struct SolverOptions {
   // window solve most often ends after that second step (or on finding it too small), and half of
   // a linearization is the J^T J sums and the landmark couplings (docs/solver.md).
   bool reuse_gauss_newton_matrix = false;
+  // Not in Ceres; false turns it off (for comparison: the results are the same bits). When
+  // accepting the candidate would run that gradient pass, the candidate's cost comes from the pass
+  // itself instead of a cost pass before it: one sweep over the residuals fewer per solve, and the
+  // iterate's gradient put back when the candidate is refused (docs/solver.md).
+  bool gradient_pass_on_candidate = true;
 
   bool validate() const {
     return max_iterations >= 0 && max_time_s > 0.0 && function_tolerance >= 0.0 &&

@@ -1278,3 +1278,125 @@ TEST_CASE("Reusing the Gauss-Newton matrix: the gradient pass forms the whole li
 }
 
 }  // namespace ums::solver
+
+namespace ums::solver {
+namespace {
+
+// r = 10 (x^3 - 1), counting its evaluations (with or without the Jacobian).
+class CountedCube final : public ResidualFunction {
+ public:
+  int num_residuals() const override { return 1; }
+  bool evaluate(const double* const* x, double* r, const JacobianView* jac) const override {
+    ++evaluations;
+    r[0] = 10.0 * (x[0][0] * x[0][0] * x[0][0] - 1.0);
+    if (jac[0].wanted()) jac[0].data[0] = 30.0 * x[0][0] * x[0][0];
+    return true;
+  }
+  mutable int evaluations = 0;
+};
+
+struct CubeRun {
+  double x = 0.0;
+  int evaluations = 0;
+  SolverSummary sum;
+};
+
+CubeRun solve_counted_cube(double x0, double radius, bool on_candidate) {
+  auto problem = std::make_unique<Problem>();
+  const CountedCube f;
+  CubeRun run;
+  run.x = x0;
+  BlockId id = 0;
+  REQUIRE(problem->add_euclidean_block(&run.x, 1, &id) == SolverStatus::kOk);
+  REQUIRE(problem->add_residual(&f, RobustLoss::trivial(), {id}) == SolverStatus::kOk);
+  SolverOptions opt;
+  opt.reuse_gauss_newton_matrix = true;
+  opt.gradient_pass_on_candidate = on_candidate;
+  opt.initial_trust_region_radius = radius;
+  REQUIRE(usable(problem->solve(opt, &run.sum)));
+  run.evaluations = f.evaluations;
+  return run;
+}
+
+}  // namespace
+
+TEST_CASE("The candidate's gradient pass: the same solve with one sweep fewer, refused candidates included",
+          "[solver][problem]") {
+  // From 0.95 every step is taken: the first candidate's cost comes from the gradient pass that
+  // accepting it runs anyway. From 0.3 the undamped first steps overshoot (x near 3.9) and are
+  // refused until the radius is small enough: each refused candidate's pass is undone, and the
+  // solve goes on from the iterate's own gradient.
+  for (const double x0 : {0.95, 0.3}) {
+    INFO("x0 " << x0);
+    const double radius = x0 > 0.5 ? 1e16 : 1e4;
+    const CubeRun plain = solve_counted_cube(x0, radius, false), fused = solve_counted_cube(x0, radius, true);
+    CHECK(fused.x == plain.x);  // the same bits
+    CHECK(std::abs(fused.x - 1.0) < 1e-6);
+    CHECK(fused.sum.iterations == plain.sum.iterations);
+    CHECK(fused.sum.successful_steps == plain.sum.successful_steps);
+    CHECK(fused.sum.linearizations == plain.sum.linearizations);
+    CHECK(fused.sum.gradient_passes == 1);
+    CHECK(fused.sum.final_cost == plain.sum.final_cost);
+    if (x0 > 0.5) {
+      CHECK(fused.evaluations == plain.evaluations - 1);
+    } else {
+      CHECK(plain.sum.iterations > plain.sum.successful_steps + 2);  // refused candidates
+      CHECK(fused.evaluations == plain.evaluations - 1);              // the accepted one's sweep
+    }
+  }
+}
+
+TEST_CASE("The candidate's gradient pass on a window: refused candidates leave the marginalization the same bits",
+          "[solver][problem]") {
+  // An acceptance test no step passes refuses every candidate after its gradient pass; the
+  // iterate's gradient and the hinted landmarks' separated terms (which the marginalization
+  // reuses) must come back as they were: the state, the gradient and the prior are compared bit
+  // for bit.
+  for (const bool lifts : {false, true}) {
+    INFO("point lifts " << lifts);
+    auto run = [&](bool on_candidate, std::vector<double>* out, SolverSummary* sum) {
+      WindowConfig cfg = small_window(false, true);
+      cfg.point_lifts = lifts;
+      WarmWindow s;
+      s.w = bench::make_vio_window(cfg);
+      REQUIRE(bench::add_to_problem(*s.w, *s.problem) == SolverStatus::kOk);
+      const int F = static_cast<int>(s.w->poses.size());
+      std::vector<BlockId> marg = {0, F};
+      for (std::size_t l = 0; l < s.w->host.size(); ++l)
+        if (s.w->host[l] == 0) marg.push_back(2 * F + 1 + static_cast<int>(l));
+      REQUIRE(s.problem->set_marginalization_hint(marg.data(), static_cast<int>(marg.size())) == SolverStatus::kOk);
+      SolverOptions opt;
+      opt.max_iterations = 3;
+      opt.reuse_gauss_newton_matrix = true;
+      opt.gradient_pass_on_candidate = on_candidate;
+      opt.min_relative_decrease = 2.0;  // a step would have to do twice what its model predicts
+      REQUIRE(usable(s.problem->solve(opt, sum)));
+      out->clear();
+      for (const auto& p : s.w->poses) out->insert(out->end(), p.begin(), p.end());
+      for (const double d : s.w->inv_depth) out->push_back(d);
+      for (int i = 0; i < s.problem->reduced_dim(); ++i) out->push_back(s.problem->reduced_gradient(i));
+      for (int l = 0; l < s.problem->num_landmark_slots(); ++l)
+        for (int k = 0; k < 3; ++k) out->push_back(s.problem->landmark_gradient(l, k));
+      auto prior = std::make_unique<MarginalPrior>();
+      REQUIRE(s.problem->marginalize(marg.data(), static_cast<int>(marg.size()), prior.get()) == SolverStatus::kOk);
+      const auto H = prior->information();
+      out->insert(out->end(), H.data(), H.data() + H.size());
+      out->insert(out->end(), prior->r0().data(), prior->r0().data() + prior->r0().size());
+    };
+    std::vector<double> plain, fused;
+    SolverSummary sp, sf;
+    run(false, &plain, &sp);
+    run(true, &fused, &sf);
+    REQUIRE(sp.iterations == 3);
+    REQUIRE(sp.successful_steps == 0);  // every candidate refused
+    CHECK(sf.iterations == sp.iterations);
+    CHECK(sf.successful_steps == 0);
+    CHECK(sf.linearizations == sp.linearizations);
+    REQUIRE(fused.size() == plain.size());
+    int differ = 0;
+    for (std::size_t i = 0; i < plain.size(); ++i) differ += fused[i] != plain[i];
+    CHECK(differ == 0);
+  }
+}
+
+}  // namespace ums::solver
