@@ -38,7 +38,7 @@ Matched match(const Trajectory& est, const Trajectory& gt, std::int64_t max_dt_n
   Matched m;
   for (std::size_t k = 0; k < as.est_index.size(); ++k) {
     const StampedPose& e = est.poses[as.est_index[k]];
-    const StampedPose& g = gt.poses[as.gt_index[k]];
+    const StampedPose& g = as.gt_pose[k];
     m.t_ns.push_back(e.t_ns);
     m.p_est.push_back(e.p_w_x);
     m.q_est.push_back(e.q_w_x);

@@ -15,14 +15,37 @@ double angle_deg(const Eigen::Quaterniond& q) {
 
 }  // namespace
 
+namespace {
+
+// The ground truth at t between a and b (a.t_ns < t < b.t_ns).
+StampedPose interpolate(const StampedPose& a, const StampedPose& b, std::int64_t t) {
+  const double f = static_cast<double>(t - a.t_ns) / static_cast<double>(b.t_ns - a.t_ns);
+  StampedPose g;
+  g.t_ns = t;
+  g.p_w_x = a.p_w_x + f * (b.p_w_x - a.p_w_x);
+  g.q_w_x = a.q_w_x.slerp(f, b.q_w_x).normalized();
+  return g;
+}
+
+}  // namespace
+
 Association associate(const Trajectory& est, const Trajectory& gt, std::int64_t max_dt_ns) {
   Association a;
+  if (gt.poses.empty()) return a;
   std::size_t j = 0;
   std::size_t last_gt = static_cast<std::size_t>(-1);
   for (std::size_t i = 0; i < est.poses.size(); ++i) {
     const std::int64_t t = est.poses[i].t_ns;
     while (j + 1 < gt.poses.size() && gt.poses[j + 1].t_ns <= t) ++j;
-    if (gt.poses.empty()) break;
+    const StampedPose& g0 = gt.poses[j];
+    if (g0.t_ns < t && j + 1 < gt.poses.size() && t - g0.t_ns <= max_dt_ns &&
+        gt.poses[j + 1].t_ns - t <= max_dt_ns) {
+      a.est_index.push_back(i);
+      a.gt_index.push_back(j);
+      a.gt_pose.push_back(interpolate(g0, gt.poses[j + 1], t));
+      ++a.interpolated;
+      continue;
+    }
     std::size_t best = j;
     if (j + 1 < gt.poses.size() &&
         std::llabs(gt.poses[j + 1].t_ns - t) < std::llabs(gt.poses[j].t_ns - t)) {
@@ -31,6 +54,7 @@ Association associate(const Trajectory& est, const Trajectory& gt, std::int64_t 
     if (std::llabs(gt.poses[best].t_ns - t) > max_dt_ns || best == last_gt) continue;
     a.est_index.push_back(i);
     a.gt_index.push_back(best);
+    a.gt_pose.push_back(gt.poses[best]);
     last_gt = best;
   }
   return a;
@@ -74,7 +98,7 @@ EvalResult evaluate(const Trajectory& est, const Trajectory& gt, const MetricsOp
   std::vector<Eigen::Vector3d> pe, pg;
   for (std::size_t k = 0; k < r.matched; ++k) {
     pe.push_back(est.poses[as.est_index[k]].p_w_x);
-    pg.push_back(gt.poses[as.gt_index[k]].p_w_x);
+    pg.push_back(as.gt_pose[k].p_w_x);
   }
   r.ate.alignment = align(pe, pg, options.align);
   const Alignment& al = r.ate.alignment;
@@ -88,7 +112,7 @@ EvalResult evaluate(const Trajectory& est, const Trajectory& gt, const MetricsOp
   for (std::size_t k = 0; k < r.matched; ++k) {
     pa[k] = al.apply(pe[k]);
     qa[k] = q_align * est.poses[as.est_index[k]].q_w_x;
-    const auto& g = gt.poses[as.gt_index[k]];
+    const auto& g = as.gt_pose[k];
     et.push_back((pa[k] - g.p_w_x).norm());
     er.push_back(angle_deg(g.q_w_x.conjugate() * qa[k]));
     r.ate.t_s.push_back(static_cast<double>(g.t_ns - t0) * 1e-9);
@@ -111,13 +135,13 @@ EvalResult evaluate(const Trajectory& est, const Trajectory& gt, const MetricsOp
       j = std::max(j, i + 1);
       auto reached = [&](std::size_t jj) {
         if (unit == RpeUnit::kMetres) return dist[jj] - dist[i] >= delta - 1e-9;
-        return static_cast<double>(gt.poses[as.gt_index[jj]].t_ns - gt.poses[as.gt_index[i]].t_ns) * 1e-9 >=
+        return static_cast<double>(as.gt_pose[jj].t_ns - as.gt_pose[i].t_ns) * 1e-9 >=
                delta - 1e-6;
       };
       while (j < r.matched && !reached(j)) ++j;
       if (j >= r.matched) break;
-      const auto& gi = gt.poses[as.gt_index[i]];
-      const auto& gj = gt.poses[as.gt_index[j]];
+      const auto& gi = as.gt_pose[i];
+      const auto& gj = as.gt_pose[j];
       // Relative motions expressed in frame i: d = R_i^T (p_j - p_i), dq = q_i^-1 q_j.
       const Eigen::Vector3d d_gt = gi.q_w_x.conjugate() * (gj.p_w_x - gi.p_w_x);
       const Eigen::Quaterniond dq_gt = gi.q_w_x.conjugate() * gj.q_w_x;
