@@ -11,6 +11,7 @@
 #include "board/config/app_config.hpp"
 #include "board/host/cli_args.hpp"
 #include "board/host/commands.hpp"
+#include "board/host/pipeline_options.hpp"
 #include "board/host/replay_pipeline.hpp"
 #include "core/common/capacity.hpp"
 #include "core/estimator/estimator.hpp"
@@ -51,19 +52,14 @@ std::string kib(std::size_t bytes) {
 
 // The parts of the product's memory, each built once as the product builds it and measured.
 std::vector<Row> budget_rows(const AppConfig& config) {
-  const FrontendOptions frontend_options = [&config] {
-    FrontendOptions o;
-    o.max_cnt = config.max_cnt;
-    return o;
-  }();
+  const FrontendOptions frontend_options = frontend_options_from(config);
 
   std::vector<Row> rows;
   rows.push_back({"frontend", measure([&] { return std::make_unique<Frontend>(frontend_options, config.rig); }),
                   "pyramids of both cameras, detector buffers, tracks"});
   rows.push_back({"frame_features", sizeof(FrameFeatures),
                   std::to_string(capacity::kMaxFeaturesPerCamera) + " features"});
-  EstimatorOptions estimator_options;
-  estimator_options.focal_px = config.rig.cam[0].fx > 0.0 ? config.rig.cam[0].fx : estimator_options.focal_px;
+  const EstimatorOptions estimator_options = estimator_options_from(config, false);
   rows.push_back({"estimator", measure([&] { return std::make_unique<Estimator>(estimator_options, config.rig); }),
                   std::to_string(capacity::kWindowSize + 1) + " frame slots (IMU intervals of " +
                       std::to_string(capacity::kMaxImuSamplesBetweenFrames) + " samples), " +
