@@ -1125,6 +1125,15 @@ struct WarmWindow {
   std::unique_ptr<Problem> problem = std::make_unique<Problem>();
 };
 
+// Frame 0's pose and speed-bias and the landmarks it hosts (add_to_problem's block ids).
+std::vector<BlockId> frame0_blocks(const VioWindow& w) {
+  const int F = static_cast<int>(w.poses.size());
+  std::vector<BlockId> marg = {0, F};
+  for (std::size_t l = 0; l < w.host.size(); ++l)
+    if (w.host[l] == 0) marg.push_back(2 * F + 1 + static_cast<int>(l));
+  return marg;
+}
+
 WarmWindow warm_window(bool lifts, bool hint) {
   WindowConfig cfg = small_window(false, true);
   cfg.point_lifts = lifts;
@@ -1132,10 +1141,7 @@ WarmWindow warm_window(bool lifts, bool hint) {
   s.w = bench::make_vio_window(cfg);
   REQUIRE(bench::add_to_problem(*s.w, *s.problem) == SolverStatus::kOk);
   if (hint) {
-    const int F = static_cast<int>(s.w->poses.size());
-    std::vector<BlockId> marg = {0, F};
-    for (std::size_t l = 0; l < s.w->host.size(); ++l)
-      if (s.w->host[l] == 0) marg.push_back(2 * F + 1 + static_cast<int>(l));
+    const std::vector<BlockId> marg = frame0_blocks(*s.w);
     REQUIRE(s.problem->set_marginalization_hint(marg.data(), static_cast<int>(marg.size())) == SolverStatus::kOk);
   }
   SolverOptions warm;
@@ -1355,16 +1361,7 @@ TEST_CASE("The candidate's gradient pass on a window: refused candidates leave t
   for (const bool lifts : {false, true}) {
     INFO("point lifts " << lifts);
     auto run = [&](bool on_candidate, std::vector<double>* out, SolverSummary* sum) {
-      WindowConfig cfg = small_window(false, true);
-      cfg.point_lifts = lifts;
-      WarmWindow s;
-      s.w = bench::make_vio_window(cfg);
-      REQUIRE(bench::add_to_problem(*s.w, *s.problem) == SolverStatus::kOk);
-      const int F = static_cast<int>(s.w->poses.size());
-      std::vector<BlockId> marg = {0, F};
-      for (std::size_t l = 0; l < s.w->host.size(); ++l)
-        if (s.w->host[l] == 0) marg.push_back(2 * F + 1 + static_cast<int>(l));
-      REQUIRE(s.problem->set_marginalization_hint(marg.data(), static_cast<int>(marg.size())) == SolverStatus::kOk);
+      WarmWindow s = warm_window(lifts, true);
       SolverOptions opt;
       opt.max_iterations = 3;
       opt.reuse_gauss_newton_matrix = true;
@@ -1377,6 +1374,7 @@ TEST_CASE("The candidate's gradient pass on a window: refused candidates leave t
       for (int i = 0; i < s.problem->reduced_dim(); ++i) out->push_back(s.problem->reduced_gradient(i));
       for (int l = 0; l < s.problem->num_landmark_slots(); ++l)
         for (int k = 0; k < 3; ++k) out->push_back(s.problem->landmark_gradient(l, k));
+      const std::vector<BlockId> marg = frame0_blocks(*s.w);
       auto prior = std::make_unique<MarginalPrior>();
       REQUIRE(s.problem->marginalize(marg.data(), static_cast<int>(marg.size()), prior.get()) == SolverStatus::kOk);
       const auto H = prior->information();
