@@ -393,6 +393,7 @@ class Problem {
   double kept_lin_x_[capacity::kMaxParameterBlocks][capacity::kMaxBlockAmbientSize] = {};
   bool kept_sep_valid_ = false;
   bool candidate_linearized_ = false;
+  int residual_passes_ = 0;  // calls of linearize() in this solve (SolverSummary::residual_passes)
 
   // Step computation.
   DenseMatrix S_;

@@ -372,6 +372,7 @@ bool Problem::linear_system_finite() const {
 }
 
 bool Problem::linearize(bool jacobians, double* cost) {
+  ++residual_passes_;
   if (callback_ != nullptr) callback_->prepare_for_evaluation();
   double total = 0.0;
   double r[capacity::kMaxResidualSize];

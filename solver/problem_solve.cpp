@@ -62,9 +62,11 @@ struct Problem::LmState {
 SolverStatus Problem::solve(const SolverOptions& options, SolverSummary* summary) {
   LmState s(options);
   kept_valid_ = false;
+  residual_passes_ = 0;
   bool running = start_solve(s);
   while (running) running = iterate(s);
   if (usable(s.status)) snapshot_solution();
+  s.summary.residual_passes = residual_passes_;
   s.summary.solve_time_s = seconds_since(s.t0);
   if (summary != nullptr) *summary = s.summary;
   return s.status;

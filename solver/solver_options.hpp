@@ -41,10 +41,11 @@ struct SolverOptions {
   // window solve most often ends after that second step (or on finding it too small), and half of
   // a linearization is the J^T J sums and the landmark couplings (docs/solver.md).
   bool reuse_gauss_newton_matrix = false;
-  // Not in Ceres; false turns it off (for comparison: the results are the same bits). When
-  // accepting the candidate would run that gradient pass, the candidate's cost comes from the pass
-  // itself instead of a cost pass before it: one sweep over the residuals fewer per solve, and the
-  // iterate's gradient put back when the candidate is refused (docs/solver.md).
+  // Not in Ceres; false turns it off (for comparison). When accepting the candidate would run
+  // that gradient pass, the candidate's cost comes from the pass itself instead of a cost pass
+  // before it: one sweep over the residuals fewer per solve, and the iterate's gradient put back
+  // when the candidate is refused. The same bits as off, for residuals whose values do not depend
+  // on which Jacobians are wanted (docs/solver.md).
   bool gradient_pass_on_candidate = true;
 
   bool validate() const {
@@ -79,6 +80,7 @@ struct SolverSummary {
   int successful_steps = 0;
   int linearizations = 0;     // Jacobian evaluations of the whole problem
   int gradient_passes = 0;    // of them, gradient only (reuse_gauss_newton_matrix)
+  int residual_passes = 0;    // sweeps over the residuals: linearizations, gradient passes, candidates' costs
   Termination termination = Termination::kNone;
   double solve_time_s = 0.0;  // s; wall time inside solve()
 };

@@ -1352,44 +1352,85 @@ TEST_CASE("The candidate's gradient pass: the same solve with one sweep fewer, r
   }
 }
 
-TEST_CASE("The candidate's gradient pass on a window: refused candidates leave the marginalization the same bits",
+namespace {
+
+// How a window solve's first candidate ends (the candidate's gradient pass runs, or must not).
+enum class FirstCandidate { kAccepted, kRefused, kLastStep, kConverged };
+
+// The noisy window (lifts or not, frame 0 hinted) solved so that its first candidate ends as
+// asked, with or without the candidate's gradient pass; then frame 0 marginalized. out: the
+// state, the gradient, the marginal prior.
+SolverSummary window_first_candidate(bool lifts, FirstCandidate how, bool on_candidate, std::vector<double>* out) {
+  WarmWindow s = warm_window(lifts, true);
+  SolverOptions opt;
+  opt.max_iterations = 3;
+  opt.reuse_gauss_newton_matrix = true;
+  opt.gradient_pass_on_candidate = on_candidate;
+  if (how == FirstCandidate::kRefused) opt.min_relative_decrease = 2.0;  // twice what its model predicts
+  if (how == FirstCandidate::kLastStep) opt.max_successful_steps = 1;
+  if (how == FirstCandidate::kConverged) {
+    SolverOptions converge;
+    converge.function_tolerance = 1e-12;
+    SolverSummary first;
+    REQUIRE(usable(s.problem->solve(converge, &first)));
+    opt.function_tolerance = 1e-3;  // at the minimum: the first candidate's change is below it
+  }
+  SolverSummary sum;
+  REQUIRE(usable(s.problem->solve(opt, &sum)));
+  out->clear();
+  for (const auto& p : s.w->poses) out->insert(out->end(), p.begin(), p.end());
+  for (const double d : s.w->inv_depth) out->push_back(d);
+  for (int i = 0; i < s.problem->reduced_dim(); ++i) out->push_back(s.problem->reduced_gradient(i));
+  for (int l = 0; l < s.problem->num_landmark_slots(); ++l)
+    for (int k = 0; k < 3; ++k) out->push_back(s.problem->landmark_gradient(l, k));
+  const std::vector<BlockId> marg = frame0_blocks(*s.w);
+  auto prior = std::make_unique<MarginalPrior>();
+  REQUIRE(s.problem->marginalize(marg.data(), static_cast<int>(marg.size()), prior.get()) == SolverStatus::kOk);
+  const auto H = prior->information();
+  out->insert(out->end(), H.data(), H.data() + H.size());
+  out->insert(out->end(), prior->r0().data(), prior->r0().data() + prior->r0().size());
+  return sum;
+}
+
+}  // namespace
+
+TEST_CASE("The candidate's gradient pass on a window: the same bits however the first candidate ends",
           "[solver][problem]") {
-  // An acceptance test no step passes refuses every candidate after its gradient pass; the
-  // iterate's gradient and the hinted landmarks' separated terms (which the marginalization
-  // reuses) must come back as they were: the state, the gradient and the prior are compared bit
-  // for bit.
-  for (const bool lifts : {false, true}) {
-    INFO("point lifts " << lifts);
-    auto run = [&](bool on_candidate, std::vector<double>* out, SolverSummary* sum) {
-      WarmWindow s = warm_window(lifts, true);
-      SolverOptions opt;
-      opt.max_iterations = 3;
-      opt.reuse_gauss_newton_matrix = true;
-      opt.gradient_pass_on_candidate = on_candidate;
-      opt.min_relative_decrease = 2.0;  // a step would have to do twice what its model predicts
-      REQUIRE(usable(s.problem->solve(opt, sum)));
-      out->clear();
-      for (const auto& p : s.w->poses) out->insert(out->end(), p.begin(), p.end());
-      for (const double d : s.w->inv_depth) out->push_back(d);
-      for (int i = 0; i < s.problem->reduced_dim(); ++i) out->push_back(s.problem->reduced_gradient(i));
-      for (int l = 0; l < s.problem->num_landmark_slots(); ++l)
-        for (int k = 0; k < 3; ++k) out->push_back(s.problem->landmark_gradient(l, k));
-      const std::vector<BlockId> marg = frame0_blocks(*s.w);
-      auto prior = std::make_unique<MarginalPrior>();
-      REQUIRE(s.problem->marginalize(marg.data(), static_cast<int>(marg.size()), prior.get()) == SolverStatus::kOk);
-      const auto H = prior->information();
-      out->insert(out->end(), H.data(), H.data() + H.size());
-      out->insert(out->end(), prior->r0().data(), prior->r0().data() + prior->r0().size());
-    };
+  // Accepted: the pass is the gradient pass, one sweep fewer. Refused (an acceptance test no step
+  // passes), or ending the solve on the function tolerance: the iterate's gradient and the hinted
+  // landmarks' separated terms (which the marginalization reuses) must come back as they were.
+  // The last permitted step: no gradient pass follows, so the candidate takes a cost pass.
+  // Compared bit for bit: the state, the gradient and the marginal prior.
+  for (const bool lifts : {false, true})
+  for (const FirstCandidate how : {FirstCandidate::kAccepted, FirstCandidate::kRefused, FirstCandidate::kLastStep,
+                                   FirstCandidate::kConverged}) {
+    INFO("point lifts " << lifts << ", ending " << static_cast<int>(how));
     std::vector<double> plain, fused;
-    SolverSummary sp, sf;
-    run(false, &plain, &sp);
-    run(true, &fused, &sf);
-    REQUIRE(sp.iterations == 3);
-    REQUIRE(sp.successful_steps == 0);  // every candidate refused
+    const SolverSummary sp = window_first_candidate(lifts, how, false, &plain);
+    const SolverSummary sf = window_first_candidate(lifts, how, true, &fused);
+    switch (how) {
+      case FirstCandidate::kAccepted:
+        REQUIRE(sp.gradient_passes == 1);
+        CHECK(sf.residual_passes == sp.residual_passes - 1);
+        break;
+      case FirstCandidate::kRefused:
+        REQUIRE(sp.successful_steps == 0);
+        CHECK(sf.residual_passes == sp.residual_passes);
+        break;
+      case FirstCandidate::kLastStep:
+        REQUIRE(sp.termination == Termination::kMaxSuccessfulSteps);
+        CHECK(sf.residual_passes == sp.residual_passes);
+        break;
+      case FirstCandidate::kConverged:
+        REQUIRE(sp.termination == Termination::kFunctionTolerance);
+        REQUIRE(sp.successful_steps == 0);
+        CHECK(sf.residual_passes == sp.residual_passes);
+        break;
+    }
     CHECK(sf.iterations == sp.iterations);
-    CHECK(sf.successful_steps == 0);
+    CHECK(sf.successful_steps == sp.successful_steps);
     CHECK(sf.linearizations == sp.linearizations);
+    CHECK(sf.final_cost == sp.final_cost);
     REQUIRE(fused.size() == plain.size());
     int differ = 0;
     for (std::size_t i = 0; i < plain.size(); ++i) differ += fused[i] != plain[i];
