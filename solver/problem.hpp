@@ -277,6 +277,7 @@ class Problem {
   bool evaluate_candidate(const LmState& s, double* cost);
   bool step_budget_spent(const LmState& s) const;    // accepting uses the last permitted step
   bool last_permitted_step(const LmState& s) const;  // accepting ends the solve unlinearized
+  bool gradient_only_at_acceptance(const LmState& s) const;  // reuse_gauss_newton_matrix's pass
   bool gradient_pass_follows(const LmState& s) const;
   bool candidate_takes_gradient_pass(const LmState& s) const;  // ... and the options allow it
   void keep_gradient_terms();

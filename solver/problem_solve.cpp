@@ -258,9 +258,7 @@ bool Problem::accept_step(LmState& s, double cand_cost, double relative_decrease
                  s.x_cost + s.fixed);
   }
   s.x_norm = variable_x_norm();
-  // After the first accepted step only: later ones are far from a warm start, where a matrix
-  // that old would slow the convergence.
-  const bool gradient_only = o.reuse_gauss_newton_matrix && s.summary.successful_steps == 0;
+  const bool gradient_only = gradient_only_at_acceptance(s);
   // The candidate's own pass was this gradient pass (evaluate_candidate): its cost is x_cost.
   const bool linearized = candidate_linearized_ ||
                           (gradient_only ? linearize_gradient(&s.x_cost) : linearize(true, &s.x_cost));
@@ -292,10 +290,15 @@ bool Problem::last_permitted_step(const LmState& s) const {
   return s.iteration >= s.options.max_iterations || step_budget_spent(s);
 }
 
-// accept_step() would form the gradient alone at the candidate (the first accepted step with
-// reuse_gauss_newton_matrix), and not end the solve first.
+// After the first accepted step only: later ones are far from a warm start, where a matrix that
+// old would slow the convergence.
+bool Problem::gradient_only_at_acceptance(const LmState& s) const {
+  return s.options.reuse_gauss_newton_matrix && s.summary.successful_steps == 0;
+}
+
+// accept_step() would form the gradient alone at the candidate, and not end the solve first.
 bool Problem::gradient_pass_follows(const LmState& s) const {
-  return s.options.reuse_gauss_newton_matrix && s.summary.successful_steps == 0 && !last_permitted_step(s);
+  return gradient_only_at_acceptance(s) && !last_permitted_step(s);
 }
 
 bool Problem::candidate_takes_gradient_pass(const LmState& s) const {
