@@ -8,6 +8,10 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <algorithm>
+#include <cstdint>
+#include <cstring>
+#include <vector>
 
 #include "solver/manifold.hpp"
 #include "solver/residual.hpp"
@@ -20,17 +24,107 @@ inline Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
   return m;
 }
 
+// The rotation and translation products that every reprojection of one (host frame i, target
+// frame j, target camera t) combination shares, as the product's visual residual has them
+// (core/estimator/relative_pose_cache.hpp): a window's 2,600 reprojections connect some 200
+// combinations, so the products are formed once per combination and evaluation point instead of
+// once per residual. An entry is keyed by the values it was formed at (pose_i, pose_j, T_b_c0):
+// a lookup compares them and re-forms on any difference. Results are thus a function of the
+// values passed in alone, whoever evaluates (ours, Ceres, a test with perturbed copies), and no
+// solver has to announce a new evaluation point. Not thread-safe (both solvers run one thread).
+class PairProductCache {
+ public:
+  struct Products {
+    Eigen::Matrix3d R_ct_w;   // world -> target camera
+    Eigen::Matrix3d R_ct_bi;  // host body -> target camera
+    Eigen::Matrix3d R_ct_ci;  // host camera -> target camera
+    Eigen::Vector3d p_ct_ci;  // host camera origin in the target camera
+    Eigen::Matrix3d R_ct_bj;  // target body -> target camera (R_c0_ct^T R_bc^T)
+    Eigen::Matrix3d R_bc;     // the extrinsic T_b_c0
+    Eigen::Vector3d t_bc;
+  };
+
+  // frames: the window's; R_c0_ct[t], t_c0_ct[t]: camera t in camera 0 (t = 0 the identity).
+  PairProductCache(int frames, const Eigen::Matrix3d R_c0_ct[2], const Eigen::Vector3d t_c0_ct[2])
+      : frames_(frames), entries_(static_cast<std::size_t>(frames * frames * 2)) {
+    for (int t = 0; t < 2; ++t) {
+      R_c0_ct_[t] = R_c0_ct[t];
+      t_c0_ct_[t] = t_c0_ct[t];
+    }
+  }
+
+  const Eigen::Matrix3d& R_c0_ct(int t) const { return R_c0_ct_[t]; }
+  const Eigen::Vector3d& t_c0_ct(int t) const { return t_c0_ct_[t]; }
+
+  const Products& at(int i, int j, int t, const double* pose_i, const double* pose_j, const double* T_bc) {
+    Entry& e = entries_[static_cast<std::size_t>((i * frames_ + j) * 2 + t)];
+    if (!e.valid || !same(e.key, pose_i) || !same(e.key + 7, pose_j) || !same(e.key + 14, T_bc)) form(e, t, pose_i, pose_j, T_bc);
+    return e.p;
+  }
+
+ private:
+  struct Entry {
+    bool valid = false;
+    double key[21] = {};
+    Products p;
+  };
+  // Bit patterns, not ==: one branch for the block instead of two per double (NaN's parity), and
+  // equal bits give equal products.
+  static bool same(const double* a, const double* b) {
+    std::uint64_t diff = 0;
+    for (int k = 0; k < 7; ++k) {
+      std::uint64_t ua, ub;
+      std::memcpy(&ua, a + k, sizeof ua);
+      std::memcpy(&ub, b + k, sizeof ub);
+      diff |= ua ^ ub;
+    }
+    return diff == 0;
+  }
+  void form(Entry& e, int t, const double* pose_i, const double* pose_j, const double* T_bc) {
+    std::copy(pose_i, pose_i + 7, e.key);
+    std::copy(pose_j, pose_j + 7, e.key + 7);
+    std::copy(T_bc, T_bc + 7, e.key + 14);
+    e.valid = true;
+    Products& c = e.p;
+    const Eigen::Matrix3d R_i = Eigen::Map<const Eigen::Quaterniond>(pose_i + 3).toRotationMatrix();
+    const Eigen::Matrix3d R_j = Eigen::Map<const Eigen::Quaterniond>(pose_j + 3).toRotationMatrix();
+    c.R_bc = Eigen::Map<const Eigen::Quaterniond>(T_bc + 3).toRotationMatrix();
+    c.t_bc = Eigen::Vector3d(T_bc[0], T_bc[1], T_bc[2]);
+    const Eigen::Vector3d p_i(pose_i[0], pose_i[1], pose_i[2]);
+    const Eigen::Vector3d p_j(pose_j[0], pose_j[1], pose_j[2]);
+    // p_ct = R_c0_ct^T (R_bc^T (R_j^T (R_i (R_bc p_ci + t_bc) + p_i - p_j) - t_bc) - t_c0_ct)
+    c.R_ct_bj.noalias() = R_c0_ct_[t].transpose() * c.R_bc.transpose();
+    c.R_ct_w.noalias() = c.R_ct_bj * R_j.transpose();
+    c.R_ct_bi.noalias() = c.R_ct_w * R_i;
+    c.R_ct_ci.noalias() = c.R_ct_bi * c.R_bc;
+    c.p_ct_ci.noalias() = c.R_ct_bi * c.t_bc + c.R_ct_w * (p_i - p_j) - c.R_ct_bj * c.t_bc -
+                          R_c0_ct_[t].transpose() * t_c0_ct_[t];
+  }
+
+  int frames_;
+  Eigen::Matrix3d R_c0_ct_[2];
+  Eigen::Vector3d t_c0_ct_[2];
+  std::vector<Entry> entries_;
+};
+
 // Observation of a landmark hosted in camera 0 of frame i, seen in camera t of frame j (j != i):
 //   p_c0i = bearing_i / rho,  p_b = T_b_c0 p_c0i,  p_w = T_w_bi p_b,  p_bj = T_w_bj^-1 p_w,
 //   p_c0j = T_b_c0^-1 p_bj,   p_ct = T_c0_ct^-1 p_c0j,   r = sqrt_info (pi(p_ct) - uv_j)
+// evaluated as p_ct = R_ct_ci p_c0i + p_ct_ci with the combination's products (PairProductCache).
 // Blocks: pose_i (7), pose_j (7), T_b_c0 (7), rho (1). Returns false behind the camera.
 class ReprojectionResidual final : public solver::ResidualFunction {
  public:
-  ReprojectionResidual(const Eigen::Vector3d& bearing_i, const Eigen::Vector2d& uv_j,
-                       const Eigen::Quaterniond& q_c0_ct, const Eigen::Vector3d& t_c0_ct,
-                       double sqrt_info)
-      : bearing_i_(bearing_i), uv_j_(uv_j), R_c0_ct_(q_c0_ct.toRotationMatrix()), t_c0_ct_(t_c0_ct),
-        sqrt_info_(sqrt_info) {}
+  ReprojectionResidual(const Eigen::Vector3d& bearing_i, const Eigen::Vector2d& uv_j, int frame_i, int frame_j,
+                       int camera_t, double sqrt_info, PairProductCache* cache)
+      : bearing_i_(bearing_i), uv_j_(uv_j), i_(frame_i), j_(frame_j), t_(camera_t), sqrt_info_(sqrt_info),
+        cache_(cache) {}
+
+  // The same observation with its products kept in `cache` (tests).
+  ReprojectionResidual with_cache(PairProductCache* cache) const {
+    ReprojectionResidual copy = *this;
+    copy.cache_ = cache;
+    return copy;
+  }
 
   int num_residuals() const override { return 2; }
   // The point is p_w (HostPointLift): with jac[0].point, d r / d p_w goes there.
@@ -38,20 +132,10 @@ class ReprojectionResidual final : public solver::ResidualFunction {
 
   bool evaluate(const double* const* x, double* residuals,
                 const solver::JacobianView* jac) const override {
-    const Eigen::Map<const Eigen::Vector3d> p_i(x[0]);
-    const Eigen::Matrix3d R_i = Eigen::Map<const Eigen::Quaterniond>(x[0] + 3).toRotationMatrix();
-    const Eigen::Map<const Eigen::Vector3d> p_j(x[1]);
-    const Eigen::Matrix3d R_j = Eigen::Map<const Eigen::Quaterniond>(x[1] + 3).toRotationMatrix();
-    const Eigen::Map<const Eigen::Vector3d> t_bc(x[2]);
-    const Eigen::Matrix3d R_bc = Eigen::Map<const Eigen::Quaterniond>(x[2] + 3).toRotationMatrix();
+    const PairProductCache::Products& c = cache_->at(i_, j_, t_, x[0], x[1], x[2]);
     const double rho = x[3][0];
-
     const Eigen::Vector3d p_ci = bearing_i_ / rho;
-    const Eigen::Vector3d p_bi = R_bc * p_ci + t_bc;
-    const Eigen::Vector3d p_w = R_i * p_bi + p_i;
-    const Eigen::Vector3d p_bj = R_j.transpose() * (p_w - p_j);
-    const Eigen::Vector3d p_c0j = R_bc.transpose() * (p_bj - t_bc);
-    const Eigen::Vector3d p_ct = R_c0_ct_.transpose() * (p_c0j - t_c0_ct_);
+    const Eigen::Vector3d p_ct = c.R_ct_ci * p_ci + c.p_ct_ci;
     if (!(p_ct.z() > 1e-6)) return false;
     const double inv_z = 1.0 / p_ct.z();
     Eigen::Map<Eigen::Vector2d> r(residuals);
@@ -59,38 +143,50 @@ class ReprojectionResidual final : public solver::ResidualFunction {
 
     const bool any = jac[0].wanted() || jac[1].wanted() || jac[2].wanted() || jac[3].wanted();
     if (!any) return true;
-    // Chain of 2x3 row blocks d r / d (point in each frame); a * skew(v) is the row-wise a x v.
-    Eigen::Matrix<double, 2, 3> d_r_d_pct;
-    d_r_d_pct << inv_z, 0.0, -p_ct.x() * inv_z * inv_z, 0.0, inv_z, -p_ct.y() * inv_z * inv_z;
-    d_r_d_pct *= sqrt_info_;
-    const Eigen::Matrix<double, 2, 3> d_r_d_pc0j = d_r_d_pct * R_c0_ct_.transpose();
-    const Eigen::Matrix<double, 2, 3> d_r_d_pbj = d_r_d_pc0j * R_bc.transpose();
-    const Eigen::Matrix<double, 2, 3> d_r_d_pw = d_r_d_pbj * R_j.transpose();
-    const Eigen::Matrix<double, 2, 3> d_r_d_pbi = d_r_d_pw * R_i;
-    const Eigen::Matrix<double, 2, 3> d_r_d_pci = d_r_d_pbi * R_bc;
-    auto times_skew = [](const Eigen::Matrix<double, 2, 3>& a, const Eigen::Vector3d& v) {
+    // d r / d (the point in frame f) = P R_ct_f, with P = d r / d p_ct = k [1 0 -u; 0 1 -v]
+    // (k = sqrt_info / z): its zeros make each product 18 operations instead of 30. a * skew(v)
+    // is the row-wise a x v.
+    const double k = sqrt_info_ * inv_z, u = p_ct.x() * inv_z, v = p_ct.y() * inv_z;
+    auto P_times = [k, u, v](const Eigen::Matrix3d& R) {
       Eigen::Matrix<double, 2, 3> out;
-      out.row(0) = a.row(0).cross(v.transpose());
-      out.row(1) = a.row(1).cross(v.transpose());
+      out.row(0) = k * (R.row(0) - u * R.row(2));
+      out.row(1) = k * (R.row(1) - v * R.row(2));
       return out;
     };
+    auto times_skew = [](const Eigen::Matrix<double, 2, 3>& a, const Eigen::Vector3d& w) {
+      Eigen::Matrix<double, 2, 3> out;
+      out.row(0) = a.row(0).cross(w.transpose());
+      out.row(1) = a.row(1).cross(w.transpose());
+      return out;
+    };
+    const Eigen::Matrix<double, 2, 3> d_r_d_pw = P_times(c.R_ct_w);
     if (jac[0].wanted() && jac[0].point) {
       solver::jacobian_map<2, 3>(jac[0]) = d_r_d_pw;
     } else if (jac[0].wanted()) {
       auto J = solver::jacobian_map<2, 6>(jac[0]);
       J.leftCols<3>() = d_r_d_pw;
-      J.rightCols<3>() = -times_skew(d_r_d_pbi, p_bi);
+      J.rightCols<3>() = -times_skew(P_times(c.R_ct_bi), c.R_bc * p_ci + c.t_bc);
     }
-    if (jac[1].wanted()) {
-      auto J = solver::jacobian_map<2, 6>(jac[1]);
-      J.leftCols<3>() = -d_r_d_pw;
-      J.rightCols<3>() = times_skew(d_r_d_pbj, p_bj);
-    }
-    if (jac[2].wanted()) {
-      // t_bc moves p_bi by +dt and p_c0j by -R_bc^T dt; R_bc rotates both ends.
-      auto J = solver::jacobian_map<2, 6>(jac[2]);
-      J.leftCols<3>() = d_r_d_pbi - d_r_d_pbj;
-      J.rightCols<3>() = times_skew(d_r_d_pc0j, p_c0j) - times_skew(d_r_d_pci, p_ci);
+    if (!jac[1].wanted() && !jac[2].wanted() && !jac[3].wanted()) return true;
+    const Eigen::Matrix<double, 2, 3> d_r_d_pci = P_times(c.R_ct_ci);
+    if (jac[1].wanted() || jac[2].wanted()) {
+      // Camera 0 is the frame's reference camera: skip the identity (the same doubles).
+      const bool cam0 = t_ == 0;
+      const Eigen::Vector3d p_c0j = cam0 ? p_ct : Eigen::Vector3d(cache_->R_c0_ct(t_) * p_ct + cache_->t_c0_ct(t_));
+      const Eigen::Matrix<double, 2, 3> d_r_d_pbj = P_times(c.R_ct_bj);
+      if (jac[1].wanted()) {
+        auto J = solver::jacobian_map<2, 6>(jac[1]);
+        J.leftCols<3>() = -d_r_d_pw;
+        J.rightCols<3>() = times_skew(d_r_d_pbj, c.R_bc * p_c0j + c.t_bc);
+      }
+      if (jac[2].wanted()) {
+        // t_bc moves p_bi by +dt and p_c0j by -R_bc^T dt; R_bc rotates both ends.
+        const Eigen::Matrix<double, 2, 3> d_r_d_pc0j =
+            cam0 ? P_times(Eigen::Matrix3d::Identity()) : P_times(cache_->R_c0_ct(t_).transpose());
+        auto J = solver::jacobian_map<2, 6>(jac[2]);
+        J.leftCols<3>() = P_times(c.R_ct_bi) - d_r_d_pbj;
+        J.rightCols<3>() = times_skew(d_r_d_pc0j, p_c0j) - times_skew(d_r_d_pci, p_ci);
+      }
     }
     if (jac[3].wanted()) {
       auto J = solver::jacobian_map<2, 1>(jac[3]);
@@ -102,9 +198,9 @@ class ReprojectionResidual final : public solver::ResidualFunction {
  private:
   Eigen::Vector3d bearing_i_;
   Eigen::Vector2d uv_j_;
-  Eigen::Matrix3d R_c0_ct_;
-  Eigen::Vector3d t_c0_ct_;
+  int i_, j_, t_;
   double sqrt_info_;
+  PairProductCache* cache_;
 };
 
 // The point of ReprojectionResidual's landmark, p_w = T_w_bi (T_b_c0 (bearing_i / rho)), and

@@ -83,6 +83,7 @@ struct VioWindow {
   std::vector<double> inv_depth, inv_depth_true;
   std::vector<int> host;  // host frame of each landmark
   std::vector<std::unique_ptr<HostPointLift>> lifts;  // per landmark
+  std::unique_ptr<PairProductCache> products;          // shared by the reprojection residuals
   // Initial values (solves restart from these).
   std::vector<std::array<double, 7>> poses0;
   std::vector<std::array<double, 9>> speed_bias0;
@@ -157,6 +158,11 @@ inline std::unique_ptr<VioWindow> make_vio_window(const WindowConfig& cfg) {
   put_pose(w->extrinsic_true, t_bc, q_bc);
   const Eigen::Quaterniond q_c0c1 = Eigen::Quaterniond::Identity();
   const Eigen::Vector3d t_c0c1(0.095, 0.0, 0.0);  // D455 baseline
+  {
+    const Eigen::Matrix3d R_c0_ct[2] = {Eigen::Matrix3d::Identity(), q_c0c1.toRotationMatrix()};
+    const Eigen::Vector3d t_c0_ct[2] = {Eigen::Vector3d::Zero(), t_c0c1};
+    w->products = std::make_unique<PairProductCache>(F, R_c0_ct, t_c0_ct);
+  }
 
   // Landmarks and observations.
   w->inv_depth_true.resize(cfg.landmarks);
@@ -210,9 +216,8 @@ inline std::unique_ptr<VioWindow> make_vio_window(const WindowConfig& cfg) {
       for (int cam = 0; cam < 2; ++cam) {
         if (cam == 1 && rng.uniform(0.0, 1.0) >= cfg.stereo_fraction) continue;
         if (!project(j, p_w[l], cam == 1, &uv)) continue;
-        w->functions.push_back(std::make_unique<ReprojectionResidual>(
-            b_meas, noisy(uv), cam == 1 ? q_c0c1 : Eigen::Quaterniond::Identity(),
-            cam == 1 ? t_c0c1 : Eigen::Vector3d::Zero(), sqrt_info));
+        w->functions.push_back(
+            std::make_unique<ReprojectionResidual>(b_meas, noisy(uv), h, j, cam, sqrt_info, w->products.get()));
         ResidualDesc d;
         d.fn = w->functions.back().get();
         d.loss = huber;

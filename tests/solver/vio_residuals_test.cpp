@@ -2,6 +2,8 @@
 
 #include <catch2/catch.hpp>
 
+#include <cmath>
+
 #include "profiling/solver_bench/vio_window.hpp"
 
 namespace ums::bench {
@@ -87,6 +89,46 @@ TEST_CASE("Reprojection, stereo and IMU-like Jacobians match central differences
   CHECK(worst[0] < 1e-6);
   CHECK(worst[1] < 1e-6);
   CHECK(worst[2] < 1e-5);
+}
+
+// The products are shared through the cache: a residual must see a block moved in place, even by
+// one unit in the last place, and agree with a cache that never saw the old values.
+TEST_CASE("Reprojections sharing a pair's products follow every change of the values passed in",
+          "[solver][bench_residuals]") {
+  WindowConfig cfg;
+  cfg.frames = 5;
+  cfg.landmarks = 15;
+  cfg.max_obs = 5;
+  auto w = make_vio_window(cfg);
+  const Eigen::Matrix3d R[2] = {Eigen::Matrix3d::Identity(), Eigen::Matrix3d::Identity()};
+  const Eigen::Vector3d t[2] = {Eigen::Vector3d::Zero(), Eigen::Vector3d(0.095, 0.0, 0.0)};
+  int compared = 0;
+  for (const ResidualDesc& d : w->residuals) {
+    if (d.num_blocks != 4 || d.fn->num_residuals() != 2) continue;
+    const auto* shared = static_cast<const ReprojectionResidual*>(d.fn);
+    const double* x[4];
+    for (int k = 0; k < 4; ++k) x[k] = w->data(d.blocks[k]);
+    double r0[2], r1[2], fresh[2];
+    solver::JacobianView none[4];
+    REQUIRE(shared->evaluate(x, r0, none));
+    for (int b = 0; b < 3; ++b) {  // pose_i, pose_j, extrinsic: the products' key
+      double* moved = w->data(d.blocks[b]);
+      const double before = moved[4];
+      moved[4] = std::nextafter(before, 2.0);
+      REQUIRE(shared->evaluate(x, r1, none));
+      PairProductCache own(cfg.frames, R, t);
+      ReprojectionResidual alone = shared->with_cache(&own);
+      REQUIRE(alone.evaluate(x, fresh, none));
+      CHECK(r1[0] == fresh[0]);
+      CHECK(r1[1] == fresh[1]);
+      moved[4] = before;
+      REQUIRE(shared->evaluate(x, r1, none));
+      CHECK(r1[0] == r0[0]);
+      CHECK(r1[1] == r0[1]);
+      ++compared;
+    }
+  }
+  CHECK(compared > 30);
 }
 
 }  // namespace
