@@ -1288,17 +1288,21 @@ TEST_CASE("Reusing the Gauss-Newton matrix: the gradient pass forms the whole li
 namespace ums::solver {
 namespace {
 
-// r = 10 (x^3 - 1), counting its evaluations (with or without the Jacobian).
+// r = 10 (x^3 - 1), counting its evaluations (with or without the Jacobian). With fail_jacobian
+// = k, its k-th evaluation that wants the Jacobian fails (the others succeed).
 class CountedCube final : public ResidualFunction {
  public:
   int num_residuals() const override { return 1; }
   bool evaluate(const double* const* x, double* r, const JacobianView* jac) const override {
     ++evaluations;
+    if (jac[0].wanted() && ++jacobian_evaluations == fail_jacobian) return false;
     r[0] = 10.0 * (x[0][0] * x[0][0] * x[0][0] - 1.0);
     if (jac[0].wanted()) jac[0].data[0] = 30.0 * x[0][0] * x[0][0];
     return true;
   }
   mutable int evaluations = 0;
+  mutable int jacobian_evaluations = 0;
+  int fail_jacobian = 0;
 };
 
 struct CubeRun {
@@ -1307,9 +1311,10 @@ struct CubeRun {
   SolverSummary sum;
 };
 
-CubeRun solve_counted_cube(double x0, double radius, bool on_candidate) {
+CubeRun solve_counted_cube(double x0, double radius, bool on_candidate, int fail_jacobian = 0) {
   auto problem = std::make_unique<Problem>();
-  const CountedCube f;
+  CountedCube f;
+  f.fail_jacobian = fail_jacobian;
   CubeRun run;
   run.x = x0;
   BlockId id = 0;
@@ -1349,6 +1354,24 @@ TEST_CASE("The candidate's gradient pass: the same solve with one sweep fewer, r
       CHECK(plain.sum.iterations > plain.sum.successful_steps + 2);  // refused candidates
       CHECK(fused.evaluations == plain.evaluations - 1);              // the accepted one's sweep
     }
+  }
+}
+
+TEST_CASE("The candidate's gradient pass fails where its cost pass would not: the plain cost pass decides",
+          "[solver][problem]") {
+  // The second Jacobian evaluation is the first candidate's gradient pass: it fails and its terms
+  // are put back. From 0.95 the cost pass accepts the candidate and the acceptance runs the
+  // gradient pass; from 0.3 it refuses it, and the next step needs the iterate's own gradient.
+  for (const double x0 : {0.95, 0.3}) {
+    INFO("x0 " << x0);
+    const double radius = x0 > 0.5 ? 1e16 : 1e4;
+    const CubeRun plain = solve_counted_cube(x0, radius, false), failed = solve_counted_cube(x0, radius, true, 2);
+    CHECK(failed.x == plain.x);  // the same bits
+    CHECK(failed.sum.iterations == plain.sum.iterations);
+    CHECK(failed.sum.successful_steps == plain.sum.successful_steps);
+    CHECK(failed.sum.linearizations == plain.sum.linearizations);
+    CHECK(failed.sum.final_cost == plain.sum.final_cost);
+    if (x0 > 0.5) CHECK(failed.evaluations == plain.evaluations + 1);  // the failed pass, then the plain run's
   }
 }
 
