@@ -455,7 +455,19 @@ void Problem::flush_dense_rows(int n, MatrixMap S) {
     v[m] = dense_v_[m];
     u2[m] = dense_u_[m];
   }
-  dense_schur_update(S.data(), S.outerStride(), n_front_, DenseSchurRows{n, v, u2, dense_lo_});
+  // Groups only when a row is zero over a whole group after its first nonzero: otherwise (a
+  // landmark seen from its host frame to the newest, extrinsics constant) they would skip nothing
+  // but cost the bookkeeping (dense_schur.hpp).
+  if (dense_gaps_)
+    for (int m = 0; m < n; ++m) {
+      const int l = dense_lm_[m];
+      dense_groups_[m] = 0;
+      for (int a = lm_seg_begin_[l]; a < lm_seg_begin_[l + 1]; ++a)
+        dense_groups_[m] |= dense_schur_groups(seg_row_[a], seg_row_[a] + seg_len_[a]);
+    }
+  dense_schur_update(S.data(), S.outerStride(), n_front_,
+                     DenseSchurRows{n, v, u2, dense_lo_, dense_gaps_ ? dense_groups_ : nullptr});
+  dense_gaps_ = false;
 }
 
 // Landmark l's couplings as dense row m (v, u = w v, zero between and around its segments), and
@@ -468,6 +480,8 @@ void Problem::gather_dense_row(int l, double w, int m, DenseVector& rhs) {
   int at = 0;
   for (int a = s0; a < s1; ++a) {
     const int oa = seg_row_[a], la = seg_len_[a];
+    // A whole group of 4 columns between this segment and the last: the tiles can skip the row there.
+    if (a > s0 && dense_schur_group(oa) > dense_schur_group(at - 1) + 1) dense_gaps_ = true;
     const double* src = v_ + seg_v_[a];
     for (; at < oa; ++at) v[at] = u[2 * at] = u[2 * at + 1] = 0.0;
     double* y = rhs.data() + oa;
@@ -480,6 +494,7 @@ void Problem::gather_dense_row(int l, double w, int m, DenseVector& rhs) {
   }
   for (; at < n_front_; ++at) v[at] = u[2 * at] = u[2 * at + 1] = 0.0;
   dense_lo_[m] = s1 > s0 ? seg_row_[s0] : n_front_;
+  dense_lm_[m] = l;
 }
 
 // 2- or 3-dof landmark: W = (H_ll + D)^-1 by a small LLT (kept in winv_; dl_[l][0] = inf when
