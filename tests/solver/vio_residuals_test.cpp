@@ -66,12 +66,18 @@ double jacobian_error(const ResidualDesc& r, VioWindow& w) {
   return worst;
 }
 
-TEST_CASE("Reprojection, stereo and IMU-like Jacobians match central differences",
-          "[solver][bench_residuals]") {
+// 5 frames, 15 landmarks: every kind of residual, quick to check one by one.
+WindowConfig small_window() {
   WindowConfig cfg;
   cfg.frames = 5;
   cfg.landmarks = 15;
   cfg.max_obs = 5;
+  return cfg;
+}
+
+TEST_CASE("Reprojection, stereo and IMU-like Jacobians match central differences",
+          "[solver][bench_residuals]") {
+  const WindowConfig cfg = small_window();
   auto w = make_vio_window(cfg);
   int checked[3] = {0, 0, 0};
   double worst[3] = {0.0, 0.0, 0.0};
@@ -95,10 +101,7 @@ TEST_CASE("Reprojection, stereo and IMU-like Jacobians match central differences
 // one unit in the last place, and agree with a cache that never saw the old values.
 TEST_CASE("Reprojections sharing a pair's products follow every change of the values passed in",
           "[solver][bench_residuals]") {
-  WindowConfig cfg;
-  cfg.frames = 5;
-  cfg.landmarks = 15;
-  cfg.max_obs = 5;
+  const WindowConfig cfg = small_window();
   auto w = make_vio_window(cfg);
   const Eigen::Matrix3d R[2] = {Eigen::Matrix3d::Identity(), Eigen::Matrix3d::Identity()};
   const Eigen::Vector3d t[2] = {Eigen::Vector3d::Zero(), Eigen::Vector3d(0.095, 0.0, 0.0)};
