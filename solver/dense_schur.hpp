@@ -2,11 +2,12 @@
 // The Schur complement of 1-dof landmarks as dense rank updates of the reduced system's front rows:
 // S -= sum_m u_m v_m^T on the upper triangle, with u_m = w_m v_m given. Landmarks come as dense
 // rows over the front (zero outside their couplings), so runs of landmarks with different
-// couplings update S together: each 4 x 4 tile of S takes all of them while it sits in registers
-// (two-double packets, double_pair.hpp). Every entry still receives -(u_m(j) v_m(i)) in row order
-// m = 0, 1, ..., as one row at a time would: the same doubles (an exact zero subtracted changes
-// nothing but the sign of a zero), on x86-64 and aarch64 alike in the portable build
-// (UMS_PORTABLE_FP: no contraction).
+// couplings update S together: each 4 x 4 tile of S takes the rows that reach it while it sits in
+// registers (two-double packets, double_pair.hpp). Every entry still receives -(u_m(j) v_m(i)) in
+// row order m = 0, 1, ..., as one row at a time would: for finite rows the same doubles (an exact
+// zero subtracted changes nothing but the sign of a zero; a row left out where it is zero would
+// have given 0 * inf = NaN had it been infinite elsewhere), on x86-64 and aarch64 alike in the
+// portable build (UMS_PORTABLE_FP: no contraction).
 
 #include <cstdint>
 

@@ -455,9 +455,10 @@ void Problem::flush_dense_rows(int n, MatrixMap S) {
     v[m] = dense_v_[m];
     u2[m] = dense_u_[m];
   }
-  // Groups only when a row is zero over a whole group after its first nonzero: otherwise (a
-  // landmark seen from its host frame to the newest, extrinsics constant) they would skip nothing
-  // but cost the bookkeeping (dense_schur.hpp).
+  // Groups only when a row has a whole group of zeros between two segments. A row of one segment
+  // (a landmark seen from its host frame to the newest, extrinsics constant) would only skip the
+  // tiles above its first row, and on the estimator's windows those rows start at the front's
+  // first column: the bookkeeping would cost more than it saves (dense_schur.hpp).
   if (dense_gaps_)
     for (int m = 0; m < n; ++m) {
       const int l = dense_lm_[m];

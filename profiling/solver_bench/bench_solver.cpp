@@ -206,7 +206,7 @@ class CeresRunner {
     so.linear_solver_type = type;
     so.linear_solver_ordering.reset(ordering);
     so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-    so.num_threads = 1;
+    so.num_threads = 1;  // also required: the residuals share a PairProductCache without locks
     so.max_num_iterations = o_.max_iterations;
     so.max_solver_time_in_seconds = 1e6;
     so.function_tolerance = o_.function_tolerance;

@@ -1308,6 +1308,7 @@ class CountedCube final : public ResidualFunction {
 struct CubeRun {
   double x = 0.0;
   int evaluations = 0;
+  int jacobian_evaluations = 0;
   SolverSummary sum;
 };
 
@@ -1326,6 +1327,7 @@ CubeRun solve_counted_cube(double x0, double radius, bool on_candidate, int fail
   opt.initial_trust_region_radius = radius;
   REQUIRE(usable(problem->solve(opt, &run.sum)));
   run.evaluations = f.evaluations;
+  run.jacobian_evaluations = f.jacobian_evaluations;
   return run;
 }
 
@@ -1371,7 +1373,11 @@ TEST_CASE("The candidate's gradient pass fails where its cost pass would not: th
     CHECK(failed.sum.successful_steps == plain.sum.successful_steps);
     CHECK(failed.sum.linearizations == plain.sum.linearizations);
     CHECK(failed.sum.final_cost == plain.sum.final_cost);
-    if (x0 > 0.5) CHECK(failed.evaluations == plain.evaluations + 1);  // the failed pass, then the plain run's
+    CHECK(std::abs(failed.x - 1.0) < 1e-6);
+    CHECK(failed.jacobian_evaluations >= 2);  // the failure was injected
+    // Accepted: the failed pass, then the plain run's passes. Refused: one pass more for the
+    // failure, one fewer where a later first candidate's gradient pass is accepted.
+    CHECK(failed.evaluations == plain.evaluations + (x0 > 0.5 ? 1 : 0));
   }
 }
 

@@ -97,15 +97,16 @@ TEST_CASE("Reprojection, stereo and IMU-like Jacobians match central differences
   CHECK(worst[2] < 1e-5);
 }
 
-// The products are shared through the cache: a residual must see a block moved in place, even by
-// one unit in the last place, and agree with a cache that never saw the old values.
+// The products are shared through the cache: a residual must see any of the 21 doubles of its
+// key (pose_i, pose_j, extrinsic) moved in place, and agree with a cache that never saw the old
+// values; moved back, it must give the old residual again.
 TEST_CASE("Reprojections sharing a pair's products follow every change of the values passed in",
           "[solver][bench_residuals]") {
   const WindowConfig cfg = small_window();
   auto w = make_vio_window(cfg);
-  const Eigen::Matrix3d R[2] = {Eigen::Matrix3d::Identity(), Eigen::Matrix3d::Identity()};
-  const Eigen::Vector3d t[2] = {Eigen::Vector3d::Zero(), Eigen::Vector3d(0.095, 0.0, 0.0)};
-  int compared = 0;
+  const Eigen::Matrix3d R[2] = {w->products->R_c0_ct(0), w->products->R_c0_ct(1)};
+  const Eigen::Vector3d t[2] = {w->products->t_c0_ct(0), w->products->t_c0_ct(1)};
+  int compared = 0, changed = 0;
   for (const ResidualDesc& d : w->residuals) {
     if (d.num_blocks != 4 || d.fn->num_residuals() != 2) continue;
     const auto* shared = static_cast<const ReprojectionResidual*>(d.fn);
@@ -114,24 +115,28 @@ TEST_CASE("Reprojections sharing a pair's products follow every change of the va
     double r0[2], r1[2], fresh[2];
     solver::JacobianView none[4];
     REQUIRE(shared->evaluate(x, r0, none));
-    for (int b = 0; b < 3; ++b) {  // pose_i, pose_j, extrinsic: the products' key
-      double* moved = w->data(d.blocks[b]);
-      const double before = moved[4];
-      moved[4] = std::nextafter(before, 2.0);
-      REQUIRE(shared->evaluate(x, r1, none));
-      PairProductCache own(cfg.frames, R, t);
-      ReprojectionResidual alone = shared->with_cache(&own);
-      REQUIRE(alone.evaluate(x, fresh, none));
-      CHECK(r1[0] == fresh[0]);
-      CHECK(r1[1] == fresh[1]);
-      moved[4] = before;
-      REQUIRE(shared->evaluate(x, r1, none));
-      CHECK(r1[0] == r0[0]);
-      CHECK(r1[1] == r0[1]);
-      ++compared;
+    for (int b = 0; b < 3; ++b) {
+      for (int e = 0; e < 7; ++e) {
+        double* moved = w->data(d.blocks[b]) + e;
+        const double before = *moved;
+        *moved = before * (1.0 + 1e-7) + 1e-9;  // far below the window's noise, far above rounding
+        REQUIRE(shared->evaluate(x, r1, none));
+        PairProductCache own(cfg.frames, R, t);
+        ReprojectionResidual alone = shared->with_cache(&own);
+        REQUIRE(alone.evaluate(x, fresh, none));
+        CHECK(r1[0] == fresh[0]);
+        CHECK(r1[1] == fresh[1]);
+        changed += r1[0] != r0[0] || r1[1] != r0[1];
+        *moved = before;
+        REQUIRE(shared->evaluate(x, r1, none));
+        CHECK(r1[0] == r0[0]);
+        CHECK(r1[1] == r0[1]);
+        ++compared;
+      }
     }
   }
-  CHECK(compared > 30);
+  CHECK(compared > 30 * 21);
+  CHECK(changed > compared * 9 / 10);  // the moves reach the residuals: the test can tell
 }
 
 }  // namespace
