@@ -28,12 +28,13 @@ SolverStatus Problem::prepare() {
 void Problem::mark_landmark_coupled() {
   for (int i = 0; i < num_blocks_; ++i) touched_[i] = false;
   for (int k = 0; k < num_residuals_; ++k) {
-    const Residual& rb = residuals_[k];
+    Residual& rb = residuals_[k];
     bool has_lm = false;
     for (int j = 0; j < rb.num_blocks; ++j) {
       const Block& b = blocks_[rb.blocks[j]];
       has_lm = has_lm || (b.eliminate && !b.constant);
     }
+    rb.lm_coupled = has_lm;
     if (!has_lm) continue;
     for (int j = 0; j < rb.num_blocks; ++j) touched_[rb.blocks[j]] = true;
   }
@@ -92,7 +93,9 @@ void Problem::first_front_rows() {
       if (!b.constant && !b.eliminate && b.index < 0) mark_[ids[a]] = std::min(mark_[ids[a]], lo);
     }
   };
-  for (int k = 0; k < num_residuals_; ++k) visit(residuals_[k].blocks, residuals_[k].num_blocks);
+  // A residual with a landmark has none: its blocks are all front blocks (mark_landmark_coupled).
+  for (int k = 0; k < num_residuals_; ++k)
+    if (!residuals_[k].lm_coupled) visit(residuals_[k].blocks, residuals_[k].num_blocks);
   for (int p = 0; p < num_priors_; ++p) visit(priors_[p].blocks, priors_[p].prior->num_blocks());
 }
 
@@ -167,7 +170,9 @@ void Problem::classify_residual(Residual& rb) {
   rb.fast2 = fast2;
   rb.lm_pos = static_cast<std::int8_t>(lm_pos);
   rb.num_sorted = static_cast<std::int8_t>(num_sorted);
-  for (int k = 0; k < num_sorted; ++k) rb.sorted[k] = sorted[k];
+  // The whole fixed-size array (the entries past num_sorted are zeros, never read): a variable
+  // count became a memcpy call per residual.
+  std::copy(sorted, sorted + capacity::kMaxBlocksPerResidual, rb.sorted);
 }
 
 // Residuals grouped by landmark (CSR), the rest in a free list.
