@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cmath>
 
+#include "solver/capacity.hpp"
+#include "solver/double_pair.hpp"
+
 namespace ums::solver {
 
 namespace {
@@ -58,12 +61,14 @@ int pivoted_cholesky(MatrixMap W, int dim, int* perm) {
     }
     const double ukk = std::sqrt(W(k, k));
     W(k, k) = ukk;
-    for (int i = k + 1; i < dim; ++i) W(k, i) /= ukk;
-    // The trailing block's upper triangle minus the outer product of row k's tail.
-    for (int j = k + 1; j < dim; ++j) {
-      const double wkj = W(k, j);
-      for (int i = k + 1; i <= j; ++i) W(i, j) -= W(k, i) * wkj;
-    }
+    // Row k's tail, also in a contiguous copy, so that the column updates below run in packets
+    // (the same operations per element).
+    double u[capacity::kMaxReducedDim];
+    for (int i = k + 1; i < dim; ++i) u[i] = W(k, i) /= ukk;
+    // The trailing block's upper triangle minus the outer product of row k's tail:
+    // W(i, j) -= W(k, i) W(k, j) for k < i <= j.
+    const double* const tail[1] = {u + k + 1};
+    for (int j = k + 1; j < dim; ++j) sub_scaled_terms<1>(&W(k + 1, j), &u[j], tail, j - k);
     rank = k + 1;
   }
   return rank;

@@ -2,6 +2,7 @@
 
 #include <catch2/catch.hpp>
 #include <memory>
+#include <vector>
 
 #include "profiling/solver_bench/vio_window.hpp"
 
@@ -111,6 +112,65 @@ TEST_CASE("Prior residual is r0 at x_lin and its Jacobians match central differe
   }
   INFO("worst Jacobian error " << worst);
   CHECK(worst < 1e-7);
+}
+
+// The factor as the plain loops formed it before its trailing update ran in packets
+// (marginal_prior.cpp): J = U P^T D^1/2 of the Jacobi-scaled H, pivoted, to the numerical rank.
+Eigen::MatrixXd reference_factor(const Eigen::MatrixXd& H) {
+  const int dim = static_cast<int>(H.rows());
+  Eigen::VectorXd sqrt_d(dim);
+  for (int i = 0; i < dim; ++i) sqrt_d[i] = H(i, i) > 0.0 ? std::sqrt(H(i, i)) : 1.0;
+  Eigen::MatrixXd W(dim, dim);
+  for (int j = 0; j < dim; ++j)
+    for (int i = 0; i <= j; ++i) W(i, j) = W(j, i) = H(i, j) / (sqrt_d[i] * sqrt_d[j]);
+  std::vector<int> perm(dim);
+  for (int i = 0; i < dim; ++i) perm[i] = i;
+  int rank = 0;
+  for (int k = 0; k < dim; ++k) {
+    int p = k;
+    for (int i = k + 1; i < dim; ++i)
+      if (W(i, i) > W(p, p)) p = i;
+    if (!(W(p, p) > 1e-12)) break;
+    if (p != k) {  // a symmetric swap of rows and columns k, p (both triangles kept here)
+      W.row(k).swap(W.row(p));
+      W.col(k).swap(W.col(p));
+      std::swap(perm[k], perm[p]);
+    }
+    const double ukk = std::sqrt(W(k, k));
+    W(k, k) = ukk;
+    for (int i = k + 1; i < dim; ++i) W(k, i) /= ukk;
+    for (int j = k + 1; j < dim; ++j)
+      for (int i = k + 1; i <= j; ++i) W(i, j) -= W(k, i) * W(k, j);
+    for (int j = k + 1; j < dim; ++j)
+      for (int i = j + 1; i < dim; ++i) W(i, j) = W(j, i);
+    rank = k + 1;
+  }
+  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(dim, dim);
+  for (int j = 0; j < dim; ++j)
+    for (int i = 0; i <= j && i < rank; ++i) J(i, perm[j]) = W(i, j) * sqrt_d[perm[j]];
+  return J;
+}
+
+TEST_CASE("The factor's packet update gives the plain loops' doubles", "[solver][prior]") {
+  bench::Rng rng(5);
+  PriorBlock pb[3];
+  make_blocks(pb);
+  const int n = 21;  // odd: every column update ends in a scalar tail at every other length
+  for (const int rank : {21, 13}) {
+    Eigen::MatrixXd A(rank, n);
+    for (int r = 0; r < rank; ++r)
+      for (int c = 0; c < n; ++c) A(r, c) = rng.normal() * (c % 5 == 0 ? 30.0 : 1.0);
+    const Eigen::MatrixXd H = A.transpose() * A;
+    auto prior = std::make_unique<MarginalPrior>();
+    REQUIRE(prior->set_from_information(pb, 3, H, Eigen::VectorXd::Zero(n)) == SolverStatus::kOk);
+    const Eigen::MatrixXd J = prior->sqrt_information();
+    const Eigen::MatrixXd J_ref = reference_factor(H);
+    int differ = 0;
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) differ += J(i, j) != J_ref(i, j);
+    INFO("rank " << rank << ", |J - J_ref| " << (J - J_ref).norm());
+    CHECK(differ == 0);
+  }
 }
 
 }  // namespace
