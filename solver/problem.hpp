@@ -411,7 +411,6 @@ class Problem {
   alignas(16) double dense_u_[kDenseSchurRows][2 * capacity::kMaxReducedDim] = {};  // u(j) twice: a packet
   int dense_lo_[kDenseSchurRows] = {};
   int dense_lm_[kDenseSchurRows] = {};  // each row's landmark
-  std::uint64_t dense_groups_[kDenseSchurRows] = {};  // the columns' groups of 4 each row reaches (dense_schur.hpp)
   bool dense_gaps_ = false;  // a row gathered since the last flush has a group of zeros between segments
   double winv_[capacity::kMaxEliminatedBlocks][9] = {};  // (H_ll + D)^-1 for e > 1
   double min_diag_ = 1e-6;

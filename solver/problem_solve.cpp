@@ -459,15 +459,16 @@ void Problem::flush_dense_rows(int n, MatrixMap S) {
   // (a landmark seen from its host frame to the newest, extrinsics constant) would only skip the
   // tiles above its first row, and on the estimator's windows those rows start at the front's
   // first column: the bookkeeping would cost more than it saves (dense_schur.hpp).
+  std::uint64_t groups[kDenseSchurRows];  // the columns' groups of 4 each row reaches
   if (dense_gaps_)
     for (int m = 0; m < n; ++m) {
       const int l = dense_lm_[m];
-      dense_groups_[m] = 0;
+      groups[m] = 0;
       for (int a = lm_seg_begin_[l]; a < lm_seg_begin_[l + 1]; ++a)
-        dense_groups_[m] |= dense_schur_groups(seg_row_[a], seg_row_[a] + seg_len_[a]);
+        groups[m] |= dense_schur_groups(seg_row_[a], seg_row_[a] + seg_len_[a]);
     }
   dense_schur_update(S.data(), S.outerStride(), n_front_,
-                     DenseSchurRows{n, v, u2, dense_lo_, dense_gaps_ ? dense_groups_ : nullptr});
+                     DenseSchurRows{n, v, u2, dense_lo_, dense_gaps_ ? groups : nullptr});
   dense_gaps_ = false;
 }
 
