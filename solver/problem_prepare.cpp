@@ -245,13 +245,13 @@ SolverStatus Problem::build_couplings() {
 
 // The variable reduced blocks sharing a residual with landmark l, sorted by reduced row.
 SolverStatus Problem::collect_couplings(int l, int* ids, int* n_ids) {
-  // mark_[block] == l: already listed for this landmark (no quadratic search).
+  // A residual's variable reduced blocks are its sorted ones (classify_residual). mark_[block]
+  // == l: already listed for this landmark (no quadratic search).
   for (int q = lm_res_begin_[l]; q < lm_res_begin_[l + 1]; ++q) {
     const Residual& rb = residuals_[lm_res_[q]];
-    for (int j = 0; j < rb.num_blocks; ++j) {
-      const int id = rb.blocks[j];
-      const Block& b = blocks_[id];
-      if (b.constant || b.eliminate || mark_[id] == l) continue;
+    for (int a = 0; a < rb.num_sorted; ++a) {
+      const int id = rb.blocks[rb.sorted[a]];
+      if (mark_[id] == l) continue;
       if (*n_ids >= capacity::kMaxCouplingsPerLandmark) return SolverStatus::kFull;
       mark_[id] = l;
       ids[(*n_ids)++] = id;
@@ -274,11 +274,14 @@ SolverStatus Problem::add_couplings(int l, const int* ids, int n_ids, int* v_use
     if (*v_used > capacity::kMaxCouplingEntries) return SolverStatus::kFull;
   }
   for (int s = 0; s < n_ids; ++s) slot_of_[ids[s]] = num_cpl_ + s;
+  // Every sorted block of the landmark's residuals is listed; the others (constant, the landmark)
+  // have no slot.
   for (int q = lm_res_begin_[l]; q < lm_res_begin_[l + 1]; ++q) {
     Residual& rb = residuals_[lm_res_[q]];
-    for (int j = 0; j < rb.num_blocks; ++j) {
-      const int id = rb.blocks[j];
-      rb.slot[j] = mark_[id] == l ? static_cast<std::int16_t>(slot_of_[id]) : -1;
+    for (int j = 0; j < rb.num_blocks; ++j) rb.slot[j] = -1;
+    for (int a = 0; a < rb.num_sorted; ++a) {
+      const int j = rb.sorted[a];
+      rb.slot[j] = static_cast<std::int16_t>(slot_of_[rb.blocks[j]]);
     }
   }
   return SolverStatus::kOk;
