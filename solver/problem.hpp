@@ -182,7 +182,7 @@ class Problem {
     std::int8_t sorted[capacity::kMaxBlocksPerResidual] = {};
     std::int8_t lm_pos = -1;     // position of the variable eliminated block, or -1
     std::int8_t lift_pos = -1;   // position of its landmark's lift host when linearized through the point
-    bool lm_coupled = false;     // has a variable eliminated block: all its blocks are front blocks
+    bool lm_coupled = false;     // has a variable eliminated block: its variable reduced blocks are all front blocks
     // Cached by prepare(): value pointers, tangent sizes and variable flags of the blocks.
     const double* params[capacity::kMaxBlocksPerResidual] = {};
     std::int8_t tangent[capacity::kMaxBlocksPerResidual] = {};

@@ -140,7 +140,7 @@ void Problem::classify_residual(Residual& rb) {
   // Fast-path eligibility: 2 rows, variable reduced blocks all 6-dof, at most one 1-dof
   // eliminated block; blocks sorted by reduced row.
   bool fast2 = rb.rows == 2;
-  std::int8_t sorted[capacity::kMaxBlocksPerResidual];
+  std::int8_t sorted[capacity::kMaxBlocksPerResidual] = {};
   int sorted_row[capacity::kMaxBlocksPerResidual];
   for (int j = 0; j < rb.num_blocks; ++j) {
     const Block& b = blocks_[rb.blocks[j]];

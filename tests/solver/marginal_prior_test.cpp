@@ -115,8 +115,13 @@ TEST_CASE("Prior residual is r0 at x_lin and its Jacobians match central differe
 }
 
 // The factor as the plain loops formed it before its trailing update ran in packets
-// (marginal_prior.cpp): J = U P^T D^1/2 of the Jacobi-scaled H, pivoted, to the numerical rank.
-Eigen::MatrixXd reference_factor(const Eigen::MatrixXd& H) {
+// (marginal_prior.cpp): J = U P^T D^1/2 of the Jacobi-scaled H, pivoted, to the numerical rank,
+// and r0 from U^T r0 = P^T D^-1/2 b.
+struct Factor {
+  Eigen::MatrixXd J;
+  Eigen::VectorXd r0;
+};
+Factor reference_factor(const Eigen::MatrixXd& H, const Eigen::VectorXd& b) {
   const int dim = static_cast<int>(H.rows());
   Eigen::VectorXd sqrt_d(dim);
   for (int i = 0; i < dim; ++i) sqrt_d[i] = H(i, i) > 0.0 ? std::sqrt(H(i, i)) : 1.0;
@@ -145,30 +150,40 @@ Eigen::MatrixXd reference_factor(const Eigen::MatrixXd& H) {
       for (int i = j + 1; i < dim; ++i) W(i, j) = W(j, i);
     rank = k + 1;
   }
-  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(dim, dim);
+  Factor f{Eigen::MatrixXd::Zero(dim, dim), Eigen::VectorXd::Zero(dim)};
+  for (int k = 0; k < rank; ++k) {
+    f.r0[k] = b[perm[k]] / sqrt_d[perm[k]];
+    for (int i = 0; i < k; ++i) f.r0[k] -= W(i, k) * f.r0[i];
+    f.r0[k] /= W(k, k);
+  }
   for (int j = 0; j < dim; ++j)
-    for (int i = 0; i <= j && i < rank; ++i) J(i, perm[j]) = W(i, j) * sqrt_d[perm[j]];
-  return J;
+    for (int i = 0; i <= j && i < rank; ++i) f.J(i, perm[j]) = W(i, j) * sqrt_d[perm[j]];
+  return f;
 }
 
 TEST_CASE("The factor's packet update gives the plain loops' doubles", "[solver][prior]") {
   bench::Rng rng(5);
   PriorBlock pb[3];
   make_blocks(pb);
-  const int n = 21;  // odd: every column update ends in a scalar tail at every other length
+  const int n = 21;  // a column update of odd length (j - k) ends in a scalar element
   for (const int rank : {21, 13}) {
     Eigen::MatrixXd A(rank, n);
     for (int r = 0; r < rank; ++r)
       for (int c = 0; c < n; ++c) A(r, c) = rng.normal() * (c % 5 == 0 ? 30.0 : 1.0);
     const Eigen::MatrixXd H = A.transpose() * A;
+    Eigen::VectorXd z(rank);
+    for (int r = 0; r < rank; ++r) z[r] = rng.normal();
+    const Eigen::VectorXd b = A.transpose() * z;
     auto prior = std::make_unique<MarginalPrior>();
-    REQUIRE(prior->set_from_information(pb, 3, H, Eigen::VectorXd::Zero(n)) == SolverStatus::kOk);
+    REQUIRE(prior->set_from_information(pb, 3, H, b) == SolverStatus::kOk);
     const Eigen::MatrixXd J = prior->sqrt_information();
-    const Eigen::MatrixXd J_ref = reference_factor(H);
+    const Factor ref = reference_factor(H, b);
     int differ = 0;
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i) differ += J(i, j) != J_ref(i, j);
-    INFO("rank " << rank << ", |J - J_ref| " << (J - J_ref).norm());
+    for (int j = 0; j < n; ++j) {
+      differ += prior->r0()[j] != ref.r0[j];
+      for (int i = 0; i < n; ++i) differ += J(i, j) != ref.J(i, j);
+    }
+    INFO("rank " << rank << ", |J - J_ref| " << (J - ref.J).norm() << ", |r0 - r0_ref| " << (prior->r0() - ref.r0).norm());
     CHECK(differ == 0);
   }
 }
