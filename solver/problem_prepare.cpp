@@ -93,7 +93,8 @@ void Problem::first_front_rows() {
       if (!b.constant && !b.eliminate && b.index < 0) mark_[ids[a]] = std::min(mark_[ids[a]], lo);
     }
   };
-  // A residual with a landmark has none: its blocks are all front blocks (mark_landmark_coupled).
+  // A residual with a variable landmark has none: its variable reduced blocks are all front
+  // blocks (mark_landmark_coupled).
   for (int k = 0; k < num_residuals_; ++k)
     if (!residuals_[k].lm_coupled) visit(residuals_[k].blocks, residuals_[k].num_blocks);
   for (int p = 0; p < num_priors_; ++p) visit(priors_[p].blocks, priors_[p].prior->num_blocks());
