@@ -9,6 +9,7 @@
 
 #include "core/frontend/float_lanes.hpp"
 #include "core/frontend/klt_tracker.hpp"
+#include "core/frontend/pixel_disk.hpp"
 
 #if defined(__ARM_NEON)
 #include <arm_neon.h>
@@ -50,13 +51,13 @@ void CornerDetector::clear_mask() { std::memset(mask_.data(), 0, mask_.size()); 
 
 void CornerDetector::block_disk(const Eigen::Vector2f& c, float r) {
   if (!std::isfinite(c.x()) || !std::isfinite(c.y())) return;
-  const int y_lo = std::max(0, static_cast<int>(std::ceil(c.y() - r)));
-  const int y_hi = std::min(height_ - 1, static_cast<int>(std::floor(c.y() + r)));
+  const int y_lo = std::max(0, disk_first_row(c, r));
+  const int y_hi = std::min(height_ - 1, disk_last_row(c, r));
   for (int y = y_lo; y <= y_hi; ++y) {
-    const float dy = static_cast<float>(y) - c.y();
-    const float dx = std::sqrt(std::max(0.0f, r * r - dy * dy));
-    const int x_lo = std::max(0, static_cast<int>(std::ceil(c.x() - dx)));
-    const int x_hi = std::min(width_ - 1, static_cast<int>(std::floor(c.x() + dx)));
+    int x_lo = 0, x_hi = 0;
+    disk_row_span(c, r, y, &x_lo, &x_hi);
+    x_lo = std::max(0, x_lo);
+    x_hi = std::min(width_ - 1, x_hi);
     if (x_hi >= x_lo) std::memset(mask_.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(width_) + x_lo, 1, static_cast<std::size_t>(x_hi - x_lo + 1));
   }
 }

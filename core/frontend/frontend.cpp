@@ -245,14 +245,16 @@ void Frontend::thin_crowded(FrontendFrameStats* st) {
     if (left_[a].length != left_[b].length) return left_[a].length > left_[b].length;
     return left_[a].id < left_[b].id;
   });
-  detector_->clear_mask();
+  // The grid answers as the detector's mask would; the mask itself is built in detect_left, only
+  // in the frames that detect.
+  crowd_.reset(cam_[0].width(), cam_[0].height(), options_.detector.min_distance_px);
   for (std::size_t k = 0; k < n; ++k) {
     LeftTrack& t = left_[order_[k]];
-    if (!detector_->is_free(t.uv)) {
+    if (!crowd_.is_free(t.uv)) {
       t.length = 0;  // marks removal
       continue;
     }
-    detector_->block_disk(t.uv, options_.detector.min_distance_px);
+    crowd_.add(t.uv);
   }
   std::size_t w = 0;
   for (std::size_t i = 0; i < n; ++i) {
@@ -280,6 +282,9 @@ void Frontend::detect_left(FrontendFrameStats* st) {
   if (budget == 0) return;
   detected_ = true;
   const std::size_t first_new = left_.size();
+  // New corners keep min_distance from every track thin_crowded kept (all of left_ now).
+  detector_->clear_mask();
+  for (const LeftTrack& t : left_) detector_->block_disk(t.uv, options_.detector.min_distance_px);
   const int found = detector_->detect(pyr_[cur_][0]->level(0), budget, options_.detector, new_px_);
   for (int i = 0; i < found; ++i) {
     LeftTrack t;

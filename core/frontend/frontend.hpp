@@ -28,6 +28,7 @@
 #include "core/common/status.hpp"
 #include "core/common/stereo_frame.hpp"
 #include "core/frontend/corner_detector.hpp"
+#include "core/frontend/crowding_grid.hpp"
 #include "core/frontend/epipolar_ransac.hpp"
 #include "core/frontend/frame_features.hpp"
 #include "core/frontend/image_pyramid.hpp"
@@ -186,6 +187,7 @@ class Frontend {
   bool detected_ = false;           // this frame ran a detection
   bool prev_right_valid_ = false;
   std::unique_ptr<CornerDetector> detector_;
+  CrowdingGrid crowd_;  // thin_crowded's disks of the kept tracks
   // Left tracks' KLT templates in the left pyramid they sit in: max_cnt slots per frame parity,
   // this frame's half cur_ * max_cnt .. + max_cnt - 1 (klt_template_cache.hpp).
   std::unique_ptr<KltTemplateCache> templates_;
