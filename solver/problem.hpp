@@ -284,8 +284,12 @@ class Problem {
   void keep_gradient_terms();
   void restore_gradient_terms();
   void drop_candidate_linearization();  // the candidate is not accepted: the iterate's terms again
-  // Solves the damped system (lm_scale = 1/radius; 0 for Gauss-Newton); false on failure.
+  // Solves the damped system (lm_scale = 1/radius; 0 for Gauss-Newton); false on failure. Keeps
+  // the factor of the reduced system (factor_valid_, factor_lm_scale_).
   bool compute_step(double lm_scale, double* model_cost_change);
+  // The step for the current gradient from the kept factor (SolverOptions::reuse_factorization).
+  bool compute_step_kept_factor(double* model_cost_change);
+  bool finish_step(double lm_scale, double* model_cost_change);
   void form_reduced_system(double lm_scale, bool damp);
   double invert_landmark1(int l, double lm_scale, bool damp);
   // 1-dof landmarks go in chunks of kDenseSchurRows dense rows (dense_v_, dense_schur.hpp).
@@ -295,9 +299,12 @@ class Problem {
   void gather_dense_row(int l, double w, int m, DenseVector& rhs);
   void flush_dense_rows(int n, MatrixMap S);
   void eliminate_landmark_block(int l, double lm_scale, MatrixMap S, DenseVector& rhs, bool damp);
-  // Factors S_ and solves S_ dx_ = -rhs_ (upper triangle of S_ read, overwritten); false on failure.
-  bool factor_and_solve();
-  bool factor_and_solve_dense();
+  bool invert_landmark_block(int l, double lm_scale, bool damp);
+  void subtract_landmark_block_gradient(int l, DenseVector& rhs) const;
+  void reduce_landmark_block_gradient(int l, double lm_scale, DenseVector& rhs, bool damp);
+  // Factors S_ in place (upper triangle read, overwritten); false on failure.
+  bool factor_reduced_system();
+  bool solve_factored();
   bool factor_tail();
   void subtract_tail_products();
   void solve_tail_forward();
@@ -403,6 +410,9 @@ class Problem {
   DenseVector dx_;
   DenseVector scale_red_;
   DenseVector d_red_;  // LM diagonal of the reduced blocks for the current step
+  // S_ holds the factor of this solve's last compute_step, formed with factor_lm_scale_.
+  bool factor_valid_ = false;
+  double factor_lm_scale_ = 0.0;
   double dl_[capacity::kMaxEliminatedBlocks][3] = {};
   // eliminate_all(): one chunk of landmarks' couplings as dense rows over
   // the front rows, v and u = w v (zero outside the landmark's segments; u's entries doubled into

@@ -62,6 +62,7 @@ struct Problem::LmState {
 SolverStatus Problem::solve(const SolverOptions& options, SolverSummary* summary) {
   LmState s(options);
   kept_valid_ = false;
+  factor_valid_ = false;  // S_ may hold a marginalization's matrix, or another layout's factor
   residual_passes_ = 0;
   bool running = start_solve(s);
   while (running) running = iterate(s);
@@ -117,7 +118,11 @@ bool Problem::iterate(LmState& s) {
   s.summary.iterations = s.iteration;
   s.step_successful = false;
   double mcc = 0.0;
-  const bool valid = compute_step(s.lm ? 1.0 / s.radius : 0.0, &mcc) && (mcc > 0.0 || !s.lm);
+  // Right after a gradient pass the matrix is still the one the last step factored.
+  const bool kept_factor = s.stale_matrix && s.options.reuse_factorization && factor_valid_;
+  if (kept_factor) ++s.summary.factor_reuses;
+  const bool valid = (kept_factor ? compute_step_kept_factor(&mcc) : compute_step(s.lm ? 1.0 / s.radius : 0.0, &mcc)) &&
+                     (mcc > 0.0 || !s.lm);
   if (!valid) return s.stale_matrix ? refresh_matrix(s) : reject_invalid_step(s);
   s.invalid_steps = 0;
   if (predicted_converged(s, mcc)) return false;
@@ -367,13 +372,47 @@ bool Problem::solved_residuals_current() const {
 
 bool Problem::compute_step(double lm_scale, double* model_cost_change) {
   const bool damp = lm_scale > 0.0;
+  factor_valid_ = false;
   form_reduced_system(lm_scale, damp);
   eliminate_all(lm_scale, S_.m(), rhs_, damp);
+  if (n_red_ > 0 && !factor_reduced_system()) return false;
+  factor_valid_ = true;
+  factor_lm_scale_ = lm_scale;
+  return finish_step(lm_scale, model_cost_change);
+}
 
-  if (n_red_ > 0 && !factor_and_solve()) return false;
+// The step of the damping the kept factor was formed with (factor_lm_scale_), for the gradient
+// b_, g_l a gradient pass formed since: H, the couplings and H_ll are the factor's, so only the
+// reduced right-hand side is formed again, in eliminate_all's order. The same doubles as
+// compute_step(factor_lm_scale_) would give, without the Schur complement and its factorization.
+bool Problem::compute_step_kept_factor(double* model_cost_change) {
+  if (!factor_valid_) return false;
+  const double lm_scale = factor_lm_scale_;
+  const bool damp = lm_scale > 0.0;
+  rhs_ = b_;
+  for (int l = 0; l < num_lm_; ++l) {
+    if (lm_dim_[l] != 1) {
+      reduce_landmark_block_gradient(l, lm_scale, rhs_, damp);
+      continue;
+    }
+    const double w = invert_landmark1(l, lm_scale, damp);
+    if (w == 0.0) continue;
+    const double c = w * gl_[l][0];
+    for (int a = lm_seg_begin_[l]; a < lm_seg_begin_[l + 1]; ++a) {
+      const double* src = v_ + seg_v_[a];
+      double* y = rhs_.data() + seg_row_[a];
+      for (int t = 0; t < seg_len_[a]; ++t) y[t] -= c * src[t];
+    }
+  }
+  return finish_step(lm_scale, model_cost_change);
+}
 
-  // Back-substitution and the model decrease -(g^T dx + 0.5 dx^T H dx), computed from the damped
-  // normal equations (H + D) dx = -g as -0.5 g^T dx + 0.5 dx^T D dx.
+// dx from the factor in S_ and rhs_, the landmarks' back-substitution and the model decrease
+// -(g^T dx + 0.5 dx^T H dx), computed from the damped normal equations (H + D) dx = -g as
+// -0.5 g^T dx + 0.5 dx^T D dx.
+bool Problem::finish_step(double lm_scale, double* model_cost_change) {
+  const bool damp = lm_scale > 0.0;
+  if (n_red_ > 0 && !solve_factored()) return false;
   double gdx = b_.dot(dx_);
   double dDd = 0.0;
   if (damp)
@@ -499,13 +538,10 @@ void Problem::gather_dense_row(int l, double w, int m, DenseVector& rhs) {
   dense_lm_[m] = l;
 }
 
-// 2- or 3-dof landmark: W = (H_ll + D)^-1 by a small LLT (kept in winv_; dl_[l][0] = inf when
-// not positive definite), S -= V W V^T, rhs -= V W g over its couplings.
-void Problem::eliminate_landmark_block(int l, double lm_scale, MatrixMap S, DenseVector& rhs,
-                                       bool damp) {
+// 2- or 3-dof landmark l: W = (H_ll + D)^-1 by a small LLT, kept in winv_ (dl_[l][0] = 0), or
+// dl_[l][0] = inf when not positive definite; false then.
+bool Problem::invert_landmark_block(int l, double lm_scale, bool damp) {
   const int e = lm_dim_[l];
-  const int c0 = lm_cpl_begin_[l];
-  const int c1 = lm_cpl_begin_[l + 1];
   Small Hd(e, e);
   for (int p = 0; p < e; ++p)
     for (int q = 0; q < e; ++q) Hd(p, q) = Hll_[l][p * e + q];
@@ -517,7 +553,7 @@ void Problem::eliminate_landmark_block(int l, double lm_scale, MatrixMap S, Dens
   Eigen::LLT<Small> llt(Hd);
   if (llt.info() != Eigen::Success) {
     dl_[l][0] = std::numeric_limits<double>::infinity();
-    return;
+    return false;
   }
   Small W = Small::Identity(e, e);
   llt.solveInPlace(W);
@@ -525,16 +561,48 @@ void Problem::eliminate_landmark_block(int l, double lm_scale, MatrixMap S, Dens
   for (int p = 0; p < e; ++p)
     for (int q = 0; q < e; ++q) winv_[l][p * e + q] = W(p, q);
   dl_[l][0] = 0.0;
+  return true;
+}
+
+namespace {
+
+using VMap = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor,
+                                            capacity::kMaxBlockTangentSize, 3>>;
+
+}  // namespace
+
+// rhs -= V W g over landmark l's couplings (W in winv_), coupling after coupling.
+void Problem::subtract_landmark_block_gradient(int l, DenseVector& rhs) const {
+  const int e = lm_dim_[l];
+  const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 3, 3>> W(winv_[l], e, e);
   SmallVector g(e);
   for (int p = 0; p < e; ++p) g[p] = gl_[l][p];
   const SmallVector wg = W * g;
-  using VMap = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic,
-                                              Eigen::RowMajor, capacity::kMaxBlockTangentSize, 3>>;
+  for (int a = lm_cpl_begin_[l]; a < lm_cpl_begin_[l + 1]; ++a) {
+    const VMap Va(v_ + cpl_v_[a], cpl_dim_[a], e);
+    rhs.segment(cpl_row_[a], cpl_dim_[a]) -= Va.lazyProduct(wg);
+  }
+}
+
+// compute_step_kept_factor's part of eliminate_landmark_block: W again, and rhs alone.
+void Problem::reduce_landmark_block_gradient(int l, double lm_scale, DenseVector& rhs, bool damp) {
+  if (invert_landmark_block(l, lm_scale, damp)) subtract_landmark_block_gradient(l, rhs);
+}
+
+// 2- or 3-dof landmark: W = (H_ll + D)^-1 (invert_landmark_block), rhs -= V W g and
+// S -= V W V^T over its couplings.
+void Problem::eliminate_landmark_block(int l, double lm_scale, MatrixMap S, DenseVector& rhs,
+                                       bool damp) {
+  if (!invert_landmark_block(l, lm_scale, damp)) return;
+  subtract_landmark_block_gradient(l, rhs);
+  const int e = lm_dim_[l];
+  const int c0 = lm_cpl_begin_[l];
+  const int c1 = lm_cpl_begin_[l + 1];
+  const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 3, 3>> W(winv_[l], e, e);
   for (int a = c0; a < c1; ++a) {
     const int oa = cpl_row_[a];
     const int da = cpl_dim_[a];
     const VMap Va(v_ + cpl_v_[a], da, e);
-    rhs.segment(oa, da) -= Va.lazyProduct(wg);
     const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, capacity::kMaxBlockTangentSize, 3>
         VW = Va.lazyProduct(W);
     for (int b = a; b < c1; ++b) {
@@ -590,16 +658,25 @@ void Problem::add_landmark_model_terms(int l, double lm_scale, bool damp, double
 // X = U^-T B^T, A' = A - X^T X (dense rank update), A' factored by cholesky_upper
 // (dense_cholesky.hpp). The dense factorization then runs on the front rows only (72 instead of
 // 171 in the VIO window). Everything is in place in S's upper triangle: U over C, X^T over B.
-bool Problem::factor_and_solve() {
-  if (!split_) return factor_and_solve_dense();
-  if (!factor_tail()) return false;
+bool Problem::factor_reduced_system() {
   MatrixMap S = S_.m();
-  const int nf = n_front_;
+  if (!split_) return cholesky_upper(S.data(), S.outerStride(), n_red_);
+  if (!factor_tail()) return false;
   subtract_tail_products();
   // The dense Cholesky of the front rows.
-  if (!cholesky_upper(S.data(), S.outerStride(), nf)) return false;
+  return cholesky_upper(S.data(), S.outerStride(), n_front_);
+}
+
+// S_ dx_ = -rhs_ from S_'s factor (factor_reduced_system).
+bool Problem::solve_factored() {
+  MatrixMap S = S_.m();
+  if (!split_) {
+    dx_ = -rhs_;
+    cholesky_solve_upper(S.data(), S.outerStride(), n_red_, dx_.data());
+    return dx_.allFinite();
+  }
   solve_tail_forward();
-  cholesky_solve_upper(S.data(), S.outerStride(), nf, dx_.data());
+  cholesky_solve_upper(S.data(), S.outerStride(), n_front_, dx_.data());
   solve_tail_backward();
   return dx_.allFinite();
 }
@@ -626,15 +703,6 @@ void Problem::subtract_tail_products() {
       sub_scaled_sum(s + q * ld + lo, g, w, x, q - lo + 1);  // rows lo..q of column q
     }
   }
-}
-
-// One Cholesky of the whole reduced system (a dense tail: no split, prepare()).
-bool Problem::factor_and_solve_dense() {
-  MatrixMap S = S_.m();
-  if (!cholesky_upper(S.data(), S.outerStride(), n_red_)) return false;
-  dx_ = -rhs_;
-  cholesky_solve_upper(S.data(), S.outerStride(), n_red_, dx_.data());
-  return dx_.allFinite();
 }
 
 // Envelope Cholesky of C (up-looking, column by column): U(i,j) for env_first_[j] <= i <= j, and

@@ -36,6 +36,7 @@ struct AppConfig {
   int max_steps_per_solve = 1;          // accepted LM steps per first-round window solve (0: until converged)
   bool max_steps_at_keyframes = false;  // the budget also at keyframes (false: they converge)
   bool reuse_gauss_newton_matrix = true;   // window solves: at the first step, the gradient only
+  bool reuse_factorization = true;         // ... and the step after it from the step before's factor
   bool estimate_extrinsic = false;      // refine T_b_c around the given values (VINS estimate_extrinsic 1)
   bool estimate_td = false;             // estimate the camera-IMU time offset (VINS estimate_td)
   bool estimate_gyro_scale = false;     // estimate the gyro's per-axis scale-factor error

@@ -29,6 +29,7 @@ EstimatorOptions estimator_options_from(const AppConfig& config, bool determinis
   o.max_steps_stage = config.max_steps_per_solve;
   o.max_steps_at_keyframes = config.max_steps_at_keyframes;
   o.reuse_gauss_newton_matrix = config.reuse_gauss_newton_matrix;
+  o.reuse_factorization = config.reuse_factorization;
   o.round2_time_s = deterministic ? std::numeric_limits<double>::infinity() : config.max_solver_time_s;
   o.preintegration.noise = ImuNoise::from_calibration(config.rig.imu);
   o.imu_noise_inflation = config.imu_noise_scale;

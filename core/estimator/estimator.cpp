@@ -53,6 +53,7 @@ ProblemBuilderOptions builder_options(const EstimatorOptions& o) {
   b.function_tolerance = o.function_tolerance;
   b.predicted_stop_share = o.predicted_stop_share;
   b.reuse_gauss_newton_matrix = o.reuse_gauss_newton_matrix;
+  b.reuse_factorization = o.reuse_factorization;
   b.selection.budget = o.max_landmarks_in_solve;
   b.selection.share_2d = o.share_2d;
   b.selection.spread_cell_tan = o.landmark_spread_px / o.focal_px;

@@ -85,6 +85,8 @@ struct EstimatorOptions {
                                           // (SolverOptions::predicted_stop_share; 0: Ceres)
   bool reuse_gauss_newton_matrix = true;  // the first accepted step forms only the gradient
                                           // again (SolverOptions::reuse_gauss_newton_matrix)
+  bool reuse_factorization = true;        // the step after that gradient pass is solved with the
+                                          // step before's factor (SolverOptions::reuse_factorization)
   bool two_stage = true;                  // false: one solve with every feature class
 
   // --- initialization (paper Sec. III-B) ---

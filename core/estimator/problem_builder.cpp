@@ -70,6 +70,7 @@ bool ProblemBuilder::solve(const SolveSpec& spec, const SolveBudget& budget, boo
   opt.function_tolerance = options_.function_tolerance;
   opt.predicted_stop_share = options_.predicted_stop_share;
   opt.reuse_gauss_newton_matrix = options_.reuse_gauss_newton_matrix;
+  opt.reuse_factorization = options_.reuse_factorization;
   solver::SolverSummary summary;
   const solver::SolverStatus st = problem_->solve(opt, &summary);
   ++stats_->solves;

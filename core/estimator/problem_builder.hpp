@@ -46,6 +46,7 @@ struct ProblemBuilderOptions {
   double function_tolerance = 1e-3;
   double predicted_stop_share = 0.5;
   bool reuse_gauss_newton_matrix = true;  // SolverOptions::reuse_gauss_newton_matrix
+  bool reuse_factorization = true;        // SolverOptions::reuse_factorization
   SelectionPolicy selection;
   double still_sigma_m = 0.002, still_sigma_rad = 0.001, still_sigma_v = 0.01;
   // Fewer of a relocation's landmarks in the solve than this and the loop keyframe's pose is

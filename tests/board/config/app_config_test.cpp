@@ -225,7 +225,7 @@ TEST_CASE("the back end's weights are keys of their own", "[config]") {
       dir, std::string(kVinsConfig) +
                "imu_noise_scale: 3.5\nimu_walk_scale: 8\nmax_landmarks_in_solve: 200\nbeta_3d: 1.5\nbeta_2d: 0.5\nmin_stereo_disparity: 2\n"
                "landmark_spread_px: 80\nstage_min_2d_left: 0\nfeature_sigma_px: 2\nhuber_px: 1\noutlier_px: 4\n"
-               "max_speed_m_s: 35\nmax_steps_per_solve: 2\nmax_steps_at_keyframes: 1\nreuse_gauss_newton_matrix: 0\n");
+               "max_speed_m_s: 35\nmax_steps_per_solve: 2\nmax_steps_at_keyframes: 1\nreuse_gauss_newton_matrix: 0\nreuse_factorization: 0\n");
   std::vector<std::string> warnings;
   const ums::AppConfig c = ums::load_config(path, micro_calibration(), &warnings);
   CHECK(warnings.empty());
@@ -244,6 +244,7 @@ TEST_CASE("the back end's weights are keys of their own", "[config]") {
   CHECK(c.max_steps_per_solve == 2);
   CHECK(c.max_steps_at_keyframes);
   CHECK_FALSE(c.reuse_gauss_newton_matrix);
+  CHECK_FALSE(c.reuse_factorization);
   // Without the keys: the defaults (docs/results.md, "Weights", has the measurements behind them).
   const ums::AppConfig d = ums::load_config(write_vins_config(ums::test::make_temp_dir("config_weights_default"),
                                                               kVinsConfig),
@@ -259,6 +260,9 @@ TEST_CASE("the back end's weights are keys of their own", "[config]") {
   CHECK(d.max_steps_at_keyframes == ums::EstimatorOptions{}.max_steps_at_keyframes);
   CHECK(d.reuse_gauss_newton_matrix);
   CHECK(d.reuse_gauss_newton_matrix == ums::EstimatorOptions{}.reuse_gauss_newton_matrix);
+  // The step after the gradient pass from the step before's factor (docs/performance.md, session 35).
+  CHECK(d.reuse_factorization);
+  CHECK(d.reuse_factorization == ums::EstimatorOptions{}.reuse_factorization);
   // The speed guard's default is the estimator's (20 m/s = 72 km/h), far above a car at 15-25 km/h
   // (6.9 m/s, the simulator's car scenarios) or a drone.
   CHECK(d.max_speed_m_s == ums::EstimatorOptions{}.max_speed_m_s);

@@ -45,6 +45,7 @@ TEST_CASE("every estimator key of the configuration reaches the estimator's opti
   c.max_steps_per_solve = 2;
   c.max_steps_at_keyframes = true;
   c.reuse_gauss_newton_matrix = false;
+  c.reuse_factorization = false;
   c.max_solver_time_s = 0.025;
   c.imu_noise_scale = 1.5;
   c.imu_walk_scale = 3.5;
@@ -73,6 +74,7 @@ TEST_CASE("every estimator key of the configuration reaches the estimator's opti
   CHECK(o.max_steps_stage == 2);
   CHECK(o.max_steps_at_keyframes);
   CHECK(!o.reuse_gauss_newton_matrix);
+  CHECK(!o.reuse_factorization);
   CHECK(o.round2_time_s == 0.025);
   CHECK(o.imu_noise_inflation == 1.5);
   CHECK(o.imu_walk_inflation == 3.5);
