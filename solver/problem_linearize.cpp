@@ -349,6 +349,7 @@ void Problem::zero_linear_system() {
       for (int i = 0; i < 3; ++i) gl_[l][i] = 0.0;
     return;
   }
+  factor_valid_ = false;  // S_'s factor was of the matrix about to be replaced
   zero_upper(H_.m());
   b_.setZero();
   if (hinted_) {

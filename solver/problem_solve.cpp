@@ -118,12 +118,14 @@ bool Problem::iterate(LmState& s) {
   s.summary.iterations = s.iteration;
   s.step_successful = false;
   double mcc = 0.0;
-  // Right after a gradient pass the matrix is still the one the last step factored.
-  const bool kept_factor = s.stale_matrix && s.options.reuse_factorization && factor_valid_;
-  if (kept_factor) ++s.summary.factor_reuses;
-  const bool valid = (kept_factor ? compute_step_kept_factor(&mcc) : compute_step(s.lm ? 1.0 / s.radius : 0.0, &mcc)) &&
-                     (mcc > 0.0 || !s.lm);
+  const double lm_scale = s.lm ? 1.0 / s.radius : 0.0;
+  // Right after a gradient pass the matrix is still the one the last step factored; its damping
+  // is kept when it is not below the trust region's (the region grew at the acceptance).
+  const bool kept_factor =
+      s.stale_matrix && s.options.reuse_factorization && factor_valid_ && factor_lm_scale_ >= lm_scale;
+  const bool valid = (kept_factor ? compute_step_kept_factor(&mcc) : compute_step(lm_scale, &mcc)) && (mcc > 0.0 || !s.lm);
   if (!valid) return s.stale_matrix ? refresh_matrix(s) : reject_invalid_step(s);
+  if (kept_factor) ++s.summary.factor_reuses;
   s.invalid_steps = 0;
   if (predicted_converged(s, mcc)) return false;
 
@@ -574,7 +576,7 @@ using VMap = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynam
 // rhs -= V W g over landmark l's couplings (W in winv_), coupling after coupling.
 void Problem::subtract_landmark_block_gradient(int l, DenseVector& rhs) const {
   const int e = lm_dim_[l];
-  const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 3, 3>> W(winv_[l], e, e);
+  const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor, 3, 3>> W(winv_[l], e, e);
   SmallVector g(e);
   for (int p = 0; p < e; ++p) g[p] = gl_[l][p];
   const SmallVector wg = W * g;
@@ -598,7 +600,7 @@ void Problem::eliminate_landmark_block(int l, double lm_scale, MatrixMap S, Dens
   const int e = lm_dim_[l];
   const int c0 = lm_cpl_begin_[l];
   const int c1 = lm_cpl_begin_[l + 1];
-  const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 3, 3>> W(winv_[l], e, e);
+  const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor, 3, 3>> W(winv_[l], e, e);
   for (int a = c0; a < c1; ++a) {
     const int oa = cpl_row_[a];
     const int da = cpl_dim_[a];

@@ -49,9 +49,9 @@ struct SolverOptions {
   bool gradient_pass_on_candidate = true;
   // Not in Ceres; false turns it off. The step right after reuse_gauss_newton_matrix's gradient
   // pass is solved with the factor of the step before: the matrix is the same, and only the
-  // damping would differ (the trust region grew at the acceptance). That step takes the earlier,
-  // larger damping instead, and costs a back-substitution instead of a Schur complement and its
-  // factorization (docs/solver.md, "Gradient pass").
+  // damping would differ. When the trust region grew at the acceptance (a well predicted step)
+  // that step takes the earlier, larger damping instead, and costs a back-substitution instead
+  // of a Schur complement and its factorization (docs/solver.md, "The kept factorization").
   bool reuse_factorization = false;
 
   bool validate() const {
@@ -86,7 +86,8 @@ struct SolverSummary {
   int successful_steps = 0;
   int linearizations = 0;     // Jacobian evaluations of the whole problem
   int gradient_passes = 0;    // of them, gradient only (reuse_gauss_newton_matrix)
-  int factor_reuses = 0;      // steps solved with the factor of the step before (reuse_factorization)
+  int factor_reuses = 0;      // valid steps solved with the factor of the step before (reuse_factorization),
+                              // the one a predicted stop ends on included
   int residual_passes = 0;    // sweeps over the residuals: linearizations, gradient passes, candidates' costs
   Termination termination = Termination::kNone;
   double solve_time_s = 0.0;  // s; wall time inside solve()

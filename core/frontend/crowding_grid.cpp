@@ -32,19 +32,19 @@ int CrowdingGrid::cell_row(float y_px) const {
   return c < 0.0f ? 0 : (c >= static_cast<float>(rows_) ? rows_ - 1 : static_cast<int>(c));
 }
 
-bool CrowdingGrid::add(const Eigen::Vector2f& c) {
-  if (!std::isfinite(c.x()) || !std::isfinite(c.y())) return true;
+bool CrowdingGrid::add(const Eigen::Vector2f& center_px) {
+  if (!std::isfinite(center_px.x()) || !std::isfinite(center_px.y())) return true;
   if (count_ >= kMaxDisks) return false;
-  const int cell = cell_row(c.y()) * cols_ + cell_col(c.x());
-  center_[count_] = c;
+  const int cell = cell_row(center_px.y()) * cols_ + cell_col(center_px.x());
+  center_[count_] = center_px;
   next_[count_] = head_[cell];
   head_[cell] = static_cast<std::int16_t>(count_);
   ++count_;
   return true;
 }
 
-bool CrowdingGrid::is_free(const Eigen::Vector2f& p) const {
-  const int x = static_cast<int>(std::lround(p.x())), y = static_cast<int>(std::lround(p.y()));
+bool CrowdingGrid::is_free(const Eigen::Vector2f& p_px) const {
+  const int x = static_cast<int>(std::lround(p_px.x())), y = static_cast<int>(std::lround(p_px.y()));
   if (x < 0 || y < 0 || x >= width_ || y >= height_) return false;
   // A disk covering (x, y) has its centre within r of it; one pixel more absorbs the rounding of
   // x - r and y + r in float.

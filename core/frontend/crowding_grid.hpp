@@ -17,6 +17,7 @@ namespace ums {
 
 class CrowdingGrid {
  public:
+  static constexpr int kCapacity = static_cast<int>(capacity::kMaxFeaturesPerCamera);  // disks
   // Empties the grid for a width x height image and disks of radius_px (the detector's
   // min_distance_px, 1..200 px). Image sizes up to the capacity's.
   void reset(int width, int height, float radius_px);
@@ -26,7 +27,7 @@ class CrowdingGrid {
   bool is_free(const Eigen::Vector2f& p_px) const;
 
   // Adds a disk at center_px (a finite point; non-finite ones are ignored, as block_disk does).
-  // At most capacity::kMaxFeaturesPerCamera disks; false (not added) beyond.
+  // At most kCapacity disks; false (not added) beyond.
   bool add(const Eigen::Vector2f& center_px);
 
   int size() const { return count_; }
@@ -35,7 +36,8 @@ class CrowdingGrid {
   static constexpr int kMinCellPx = 16;
   static constexpr int kMaxCols = capacity::kMaxImageWidth / kMinCellPx + 1;
   static constexpr int kMaxRows = capacity::kMaxImageHeight / kMinCellPx + 1;
-  static constexpr int kMaxDisks = static_cast<int>(capacity::kMaxFeaturesPerCamera);
+  static constexpr int kMaxDisks = kCapacity;
+  static_assert(kMaxDisks <= 32767, "disk indices are int16");
 
   int cell_col(float x_px) const;
   int cell_row(float y_px) const;

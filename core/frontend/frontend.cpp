@@ -246,7 +246,8 @@ void Frontend::thin_crowded(FrontendFrameStats* st) {
     return left_[a].id < left_[b].id;
   });
   // The grid answers as the detector's mask would; the mask itself is built in detect_left, only
-  // in the frames that detect.
+  // in the frames that detect. Every track fits in it, so no disk is refused.
+  static_assert(kCap <= static_cast<std::size_t>(CrowdingGrid::kCapacity), "a disk per left track");
   crowd_.reset(cam_[0].width(), cam_[0].height(), options_.detector.min_distance_px);
   for (std::size_t k = 0; k < n; ++k) {
     LeftTrack& t = left_[order_[k]];

@@ -734,6 +734,104 @@ TEST_CASE("1-dof landmarks around 2- and 3-dof ones: each ends the chunk before 
   check_dense_schur({6, 6, 5}, {1, 2, 1, 1, 3, 1, 2, 2, 1}, 8);
 }
 
+// r = A x_a + B x_l + c + 0.3 (B x_l)^2 (elementwise): mildly nonlinear in the landmark, so a
+// second step after the gradient pass is not a zero step.
+class BentResidual final : public ResidualFunction {
+ public:
+  BentResidual(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, const Eigen::VectorXd& c) : A_(A), B_(B), c_(c) {}
+  int num_residuals() const override { return static_cast<int>(c_.size()); }
+  bool evaluate(const double* const* x, double* r, const JacobianView* jac) const override {
+    const Eigen::Map<const Eigen::VectorXd> xa(x[0], A_.cols()), xl(x[1], B_.cols());
+    const Eigen::VectorXd u = B_ * xl;
+    Eigen::Map<Eigen::VectorXd>(r, c_.size()) = A_ * xa + u + c_ + 0.3 * u.cwiseProduct(u);
+    const Eigen::MatrixXd JB = B_ + 0.6 * u.asDiagonal() * B_;
+    for (int k = 0; k < 2; ++k) {
+      if (!jac[k].wanted()) continue;
+      const Eigen::MatrixXd& M = k == 0 ? A_ : JB;
+      for (int i = 0; i < M.rows(); ++i)
+        for (int j = 0; j < M.cols(); ++j) jac[k].data[i * jac[k].row_stride + j] = M(i, j);
+    }
+    return true;
+  }
+
+ private:
+  Eigen::MatrixXd A_, B_;
+  Eigen::VectorXd c_;
+};
+
+// Landmarks of lm_dim dofs over Euclidean blocks (no tail: one dense Cholesky of the reduced
+// system), solved three accepted steps with the gradient pass, the kept factorization on or off;
+// the state after the solve and its summary.
+std::vector<double> solve_bent(const std::vector<int>& red_size, const std::vector<int>& lm_dim, Method method,
+                               bool reuse_factor, SolverSummary* sum) {
+  bench::Rng rng(11);
+  auto randm = [&](int r, int c) {
+    Eigen::MatrixXd m(r, c);
+    for (int i = 0; i < r; ++i)
+      for (int j = 0; j < c; ++j) m(i, j) = rng.normal();
+    return m;
+  };
+  std::vector<std::vector<double>> x;
+  for (int t : red_size) x.emplace_back(static_cast<std::size_t>(t), 0.0);
+  for (int e : lm_dim) x.emplace_back(static_cast<std::size_t>(e), 0.1);
+  auto problem = std::make_unique<Problem>();
+  const int nb = static_cast<int>(red_size.size());
+  std::vector<BlockId> id(x.size());
+  for (std::size_t k = 0; k < x.size(); ++k) {
+    const int n = static_cast<int>(x[k].size());
+    const bool lm = static_cast<int>(k) >= nb;
+    REQUIRE((lm ? problem->add_landmark_block(x[k].data(), n, &id[k]) : problem->add_euclidean_block(x[k].data(), n, &id[k])) ==
+            SolverStatus::kOk);
+  }
+  std::vector<std::unique_ptr<BentResidual>> res;
+  for (std::size_t l = 0; l < lm_dim.size(); ++l) {
+    const int e = lm_dim[l];
+    for (int k = 0; k < nb; ++k) {
+      // Every block sees every landmark once, with 2 + e rows: each landmark's block is invertible.
+      Eigen::VectorXd c(2 + e);
+      for (int i = 0; i < 2 + e; ++i) c[i] = rng.normal();
+      res.push_back(std::make_unique<BentResidual>(randm(2 + e, red_size[static_cast<std::size_t>(k)]), randm(2 + e, e), c));
+      REQUIRE(problem->add_residual(res.back().get(), RobustLoss::trivial(),
+                                    {id[static_cast<std::size_t>(k)], id[static_cast<std::size_t>(nb) + l]}) == SolverStatus::kOk);
+    }
+  }
+  SolverOptions opt;
+  opt.method = method;
+  opt.initial_trust_region_radius = 1e3;  // pinned: the kept factor's damping is the fresh one's
+  opt.max_trust_region_radius = 1e3;
+  opt.max_successful_steps = 3;
+  opt.function_tolerance = 0.0;
+  opt.reuse_gauss_newton_matrix = true;
+  opt.reuse_factorization = reuse_factor;
+  REQUIRE(usable(problem->solve(opt, sum)));
+  std::vector<double> out;
+  for (const auto& v : x) out.insert(out.end(), v.begin(), v.end());
+  return out;
+}
+
+TEST_CASE("Reusing the factorization: 1-, 2- and 3-dof landmarks, one dense Cholesky, LM and Gauss-Newton",
+          "[solver][problem]") {
+  const std::vector<int> red = {6, 5, 3};
+  const std::vector<std::vector<int>> dims = {{1, 1, 1, 1, 1, 1, 1}, {1, 2, 1, 3, 3, 1, 2}, {3, 2}};
+  for (const Method method : {Method::kLevenbergMarquardt, Method::kGaussNewton}) {
+    for (const auto& lm : dims) {
+      INFO("method " << static_cast<int>(method) << ", landmarks " << lm.size() << " (first " << lm[0] << " dofs)");
+      SolverSummary fresh, kept;
+      const std::vector<double> x_fresh = solve_bent(red, lm, method, false, &fresh);
+      const std::vector<double> x_kept = solve_bent(red, lm, method, true, &kept);
+      REQUIRE(fresh.successful_steps == 3);
+      CHECK(kept.successful_steps == 3);
+      CHECK(kept.gradient_passes == 1);
+      CHECK(kept.factor_reuses == 1);
+      CHECK(fresh.final_cost < 0.8 * fresh.initial_cost);  // the steps are real (more rows than unknowns)
+      CHECK(kept.final_cost == fresh.final_cost);
+      int differ = 0;
+      for (std::size_t i = 0; i < x_fresh.size(); ++i) differ += x_kept[i] != x_fresh[i] ? 1 : 0;
+      CHECK(differ == 0);
+    }
+  }
+}
+
 TEST_CASE("Eliminated blocks of 2 and 3 dofs and odd block sizes: Schur step = dense solve",
           "[solver][problem]") {
   bench::Rng rng(21);
