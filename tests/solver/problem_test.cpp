@@ -601,18 +601,34 @@ TEST_CASE("Solve, cost evaluation and marginalization allocate nothing after set
 namespace ums::solver {
 namespace {
 
-// r = A x_a + B x_b + c (affine): one Gauss-Newton step lands on the least-squares solution.
+// rows x cols standard normal draws, row by row.
+Eigen::MatrixXd random_matrix(bench::Rng& rng, int rows, int cols) {
+  Eigen::MatrixXd m(rows, cols);
+  for (int i = 0; i < rows; ++i)
+    for (int j = 0; j < cols; ++j) m(i, j) = rng.normal();
+  return m;
+}
+
+// r = A x_a + B x_b + c (affine): one Gauss-Newton step lands on the least-squares solution. With
+// bend != 0, r = A x_a + u + c + bend u^2 (u = B x_b, elementwise square): mildly nonlinear in x_b.
 class AffineResidual final : public ResidualFunction {
  public:
-  AffineResidual(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, const Eigen::VectorXd& c)
-      : A_(A), B_(B), c_(c) {}
+  AffineResidual(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, const Eigen::VectorXd& c, double bend = 0.0)
+      : A_(A), B_(B), c_(c), bend_(bend) {}
   int num_residuals() const override { return static_cast<int>(c_.size()); }
   bool evaluate(const double* const* x, double* r, const JacobianView* jac) const override {
     const Eigen::Map<const Eigen::VectorXd> xa(x[0], A_.cols()), xb(x[1], B_.cols());
-    Eigen::Map<Eigen::VectorXd>(r, c_.size()) = A_ * xa + B_ * xb + c_;
+    Eigen::MatrixXd JB = B_;
+    if (bend_ == 0.0) {
+      Eigen::Map<Eigen::VectorXd>(r, c_.size()) = A_ * xa + B_ * xb + c_;
+    } else {
+      const Eigen::VectorXd u = B_ * xb;
+      Eigen::Map<Eigen::VectorXd>(r, c_.size()) = A_ * xa + u + c_ + bend_ * u.cwiseProduct(u);
+      JB += 2.0 * bend_ * u.asDiagonal() * B_;
+    }
     for (int k = 0; k < 2; ++k) {
       if (!jac[k].wanted()) continue;
-      const Eigen::MatrixXd& M = k == 0 ? A_ : B_;
+      const Eigen::MatrixXd& M = k == 0 ? A_ : JB;
       for (int i = 0; i < M.rows(); ++i)
         for (int j = 0; j < M.cols(); ++j) jac[k].data[i * jac[k].row_stride + j] = M(i, j);
     }
@@ -622,6 +638,7 @@ class AffineResidual final : public ResidualFunction {
  private:
   Eigen::MatrixXd A_, B_;
   Eigen::VectorXd c_;
+  double bend_ = 0.0;
 };
 
 // Landmarks of lm_dim[l] dofs (1: the dense rows of problem_solve.cpp's eliminate_all; 2 or 3:
@@ -630,12 +647,7 @@ class AffineResidual final : public ResidualFunction {
 // Gauss-Newton step against a dense solve of the full system.
 void check_dense_schur(const std::vector<int>& red_size, const std::vector<int>& lm_dim, std::uint32_t seed) {
   bench::Rng rng(seed);
-  auto randm = [&](int r, int c) {
-    Eigen::MatrixXd m(r, c);
-    for (int i = 0; i < r; ++i)
-      for (int j = 0; j < c; ++j) m(i, j) = rng.normal();
-    return m;
-  };
+  auto randm = [&](int r, int c) { return random_matrix(rng, r, c); };
   const int nb = static_cast<int>(red_size.size());
   const int n_lm = static_cast<int>(lm_dim.size());
   std::vector<int> col(static_cast<std::size_t>(nb), 0), lm_col(static_cast<std::size_t>(n_lm), 0);
@@ -734,43 +746,13 @@ TEST_CASE("1-dof landmarks around 2- and 3-dof ones: each ends the chunk before 
   check_dense_schur({6, 6, 5}, {1, 2, 1, 1, 3, 1, 2, 2, 1}, 8);
 }
 
-// r = A x_a + B x_l + c + 0.3 (B x_l)^2 (elementwise): mildly nonlinear in the landmark, so a
-// second step after the gradient pass is not a zero step.
-class BentResidual final : public ResidualFunction {
- public:
-  BentResidual(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, const Eigen::VectorXd& c) : A_(A), B_(B), c_(c) {}
-  int num_residuals() const override { return static_cast<int>(c_.size()); }
-  bool evaluate(const double* const* x, double* r, const JacobianView* jac) const override {
-    const Eigen::Map<const Eigen::VectorXd> xa(x[0], A_.cols()), xl(x[1], B_.cols());
-    const Eigen::VectorXd u = B_ * xl;
-    Eigen::Map<Eigen::VectorXd>(r, c_.size()) = A_ * xa + u + c_ + 0.3 * u.cwiseProduct(u);
-    const Eigen::MatrixXd JB = B_ + 0.6 * u.asDiagonal() * B_;
-    for (int k = 0; k < 2; ++k) {
-      if (!jac[k].wanted()) continue;
-      const Eigen::MatrixXd& M = k == 0 ? A_ : JB;
-      for (int i = 0; i < M.rows(); ++i)
-        for (int j = 0; j < M.cols(); ++j) jac[k].data[i * jac[k].row_stride + j] = M(i, j);
-    }
-    return true;
-  }
-
- private:
-  Eigen::MatrixXd A_, B_;
-  Eigen::VectorXd c_;
-};
-
 // Landmarks of lm_dim dofs over Euclidean blocks (no tail: one dense Cholesky of the reduced
 // system), solved three accepted steps with the gradient pass, the kept factorization on or off;
 // the state after the solve and its summary.
 std::vector<double> solve_bent(const std::vector<int>& red_size, const std::vector<int>& lm_dim, Method method,
                                bool reuse_factor, SolverSummary* sum) {
   bench::Rng rng(11);
-  auto randm = [&](int r, int c) {
-    Eigen::MatrixXd m(r, c);
-    for (int i = 0; i < r; ++i)
-      for (int j = 0; j < c; ++j) m(i, j) = rng.normal();
-    return m;
-  };
+  auto randm = [&](int r, int c) { return random_matrix(rng, r, c); };
   std::vector<std::vector<double>> x;
   for (int t : red_size) x.emplace_back(static_cast<std::size_t>(t), 0.0);
   for (int e : lm_dim) x.emplace_back(static_cast<std::size_t>(e), 0.1);
@@ -783,14 +765,15 @@ std::vector<double> solve_bent(const std::vector<int>& red_size, const std::vect
     REQUIRE((lm ? problem->add_landmark_block(x[k].data(), n, &id[k]) : problem->add_euclidean_block(x[k].data(), n, &id[k])) ==
             SolverStatus::kOk);
   }
-  std::vector<std::unique_ptr<BentResidual>> res;
+  std::vector<std::unique_ptr<AffineResidual>> res;
   for (std::size_t l = 0; l < lm_dim.size(); ++l) {
     const int e = lm_dim[l];
     for (int k = 0; k < nb; ++k) {
       // Every block sees every landmark once, with 2 + e rows: each landmark's block is invertible.
       Eigen::VectorXd c(2 + e);
       for (int i = 0; i < 2 + e; ++i) c[i] = rng.normal();
-      res.push_back(std::make_unique<BentResidual>(randm(2 + e, red_size[static_cast<std::size_t>(k)]), randm(2 + e, e), c));
+      // Bent (0.3): a second step after the gradient pass is not a zero step.
+      res.push_back(std::make_unique<AffineResidual>(randm(2 + e, red_size[static_cast<std::size_t>(k)]), randm(2 + e, e), c, 0.3));
       REQUIRE(problem->add_residual(res.back().get(), RobustLoss::trivial(),
                                     {id[static_cast<std::size_t>(k)], id[static_cast<std::size_t>(nb) + l]}) == SolverStatus::kOk);
     }
@@ -835,12 +818,7 @@ TEST_CASE("Reusing the factorization: 1-, 2- and 3-dof landmarks, one dense Chol
 TEST_CASE("Eliminated blocks of 2 and 3 dofs and odd block sizes: Schur step = dense solve",
           "[solver][problem]") {
   bench::Rng rng(21);
-  auto randm = [&](int r, int c) {
-    Eigen::MatrixXd m(r, c);
-    for (int i = 0; i < r; ++i)
-      for (int j = 0; j < c; ++j) m(i, j) = rng.normal();
-    return m;
-  };
+  auto randm = [&](int r, int c) { return random_matrix(rng, r, c); };
   // Reduced blocks of 4, 5 and 1 dofs; 12 landmarks of 3 or 2 dofs, each seen 3 times.
   const int red_size[3] = {4, 5, 1};
   std::vector<std::vector<double>> x_red(3), x_lm(12);
