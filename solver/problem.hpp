@@ -297,11 +297,11 @@ class Problem {
   // marginalized: only the landmarks marked in marg_ (the marginalization's).
   void eliminate_all(double lm_scale, MatrixMap S, DenseVector& rhs, bool damp, bool marginalized = false);
   void gather_dense_row(int l, double w, int m, DenseVector& rhs);
+  void subtract_landmark1_gradient(int l, double c, DenseVector& rhs) const;
   void flush_dense_rows(int n, MatrixMap S);
   void eliminate_landmark_block(int l, double lm_scale, MatrixMap S, DenseVector& rhs, bool damp);
   bool invert_landmark_block(int l, double lm_scale, bool damp);
   void subtract_landmark_block_gradient(int l, DenseVector& rhs) const;
-  void reduce_landmark_block_gradient(int l, double lm_scale, DenseVector& rhs, bool damp);
   // Factors S_ in place (upper triangle read, overwritten); false on failure.
   bool factor_reduced_system();
   bool solve_factored();

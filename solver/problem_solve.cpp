@@ -394,17 +394,11 @@ bool Problem::compute_step_kept_factor(double* model_cost_change) {
   rhs_ = b_;
   for (int l = 0; l < num_lm_; ++l) {
     if (lm_dim_[l] != 1) {
-      reduce_landmark_block_gradient(l, lm_scale, rhs_, damp);
+      if (invert_landmark_block(l, lm_scale, damp)) subtract_landmark_block_gradient(l, rhs_);
       continue;
     }
     const double w = invert_landmark1(l, lm_scale, damp);
-    if (w == 0.0) continue;
-    const double c = w * gl_[l][0];
-    for (int a = lm_seg_begin_[l]; a < lm_seg_begin_[l + 1]; ++a) {
-      const double* src = v_ + seg_v_[a];
-      double* y = rhs_.data() + seg_row_[a];
-      for (int t = 0; t < seg_len_[a]; ++t) y[t] -= c * src[t];
-    }
+    if (w != 0.0) subtract_landmark1_gradient(l, w * gl_[l][0], rhs_);
   }
   return finish_step(lm_scale, model_cost_change);
 }
@@ -513,12 +507,21 @@ void Problem::flush_dense_rows(int n, MatrixMap S) {
   dense_gaps_ = false;
 }
 
+// rhs -= c v over 1-dof landmark l's segments (c = w g_l).
+void Problem::subtract_landmark1_gradient(int l, double c, DenseVector& rhs) const {
+  for (int a = lm_seg_begin_[l]; a < lm_seg_begin_[l + 1]; ++a) {
+    const double* src = v_ + seg_v_[a];
+    double* y = rhs.data() + seg_row_[a];
+    for (int t = 0; t < seg_len_[a]; ++t) y[t] -= c * src[t];
+  }
+}
+
 // Landmark l's couplings as dense row m (v, u = w v, zero between and around its segments), and
-// its gradient term out of rhs (rhs -= (w g) v over its segments).
+// its gradient term out of rhs (subtract_landmark1_gradient).
 void Problem::gather_dense_row(int l, double w, int m, DenseVector& rhs) {
   double* v = dense_v_[m];
   double* u = dense_u_[m];
-  const double c = w * gl_[l][0];
+  subtract_landmark1_gradient(l, w * gl_[l][0], rhs);
   const int s0 = lm_seg_begin_[l], s1 = lm_seg_begin_[l + 1];
   int at = 0;
   for (int a = s0; a < s1; ++a) {
@@ -527,9 +530,7 @@ void Problem::gather_dense_row(int l, double w, int m, DenseVector& rhs) {
     if (a > s0 && dense_schur_group(oa) > dense_schur_group(at - 1) + 1) dense_gaps_ = true;
     const double* src = v_ + seg_v_[a];
     for (; at < oa; ++at) v[at] = u[2 * at] = u[2 * at + 1] = 0.0;
-    double* y = rhs.data() + oa;
     for (int t = 0; t < la; ++t) {
-      y[t] -= c * src[t];
       v[oa + t] = src[t];
       u[2 * (oa + t)] = u[2 * (oa + t) + 1] = w * src[t];
     }
@@ -570,13 +571,15 @@ namespace {
 
 using VMap = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor,
                                             capacity::kMaxBlockTangentSize, 3>>;
+// winv_[l], row-major as invert_landmark_block writes it.
+using WMap = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor, 3, 3>>;
 
 }  // namespace
 
 // rhs -= V W g over landmark l's couplings (W in winv_), coupling after coupling.
 void Problem::subtract_landmark_block_gradient(int l, DenseVector& rhs) const {
   const int e = lm_dim_[l];
-  const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor, 3, 3>> W(winv_[l], e, e);
+  const WMap W(winv_[l], e, e);
   SmallVector g(e);
   for (int p = 0; p < e; ++p) g[p] = gl_[l][p];
   const SmallVector wg = W * g;
@@ -584,11 +587,6 @@ void Problem::subtract_landmark_block_gradient(int l, DenseVector& rhs) const {
     const VMap Va(v_ + cpl_v_[a], cpl_dim_[a], e);
     rhs.segment(cpl_row_[a], cpl_dim_[a]) -= Va.lazyProduct(wg);
   }
-}
-
-// compute_step_kept_factor's part of eliminate_landmark_block: W again, and rhs alone.
-void Problem::reduce_landmark_block_gradient(int l, double lm_scale, DenseVector& rhs, bool damp) {
-  if (invert_landmark_block(l, lm_scale, damp)) subtract_landmark_block_gradient(l, rhs);
 }
 
 // 2- or 3-dof landmark: W = (H_ll + D)^-1 (invert_landmark_block), rhs -= V W g and
@@ -600,7 +598,7 @@ void Problem::eliminate_landmark_block(int l, double lm_scale, MatrixMap S, Dens
   const int e = lm_dim_[l];
   const int c0 = lm_cpl_begin_[l];
   const int c1 = lm_cpl_begin_[l + 1];
-  const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor, 3, 3>> W(winv_[l], e, e);
+  const WMap W(winv_[l], e, e);
   for (int a = c0; a < c1; ++a) {
     const int oa = cpl_row_[a];
     const int da = cpl_dim_[a];
