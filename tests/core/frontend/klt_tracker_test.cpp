@@ -288,8 +288,9 @@ TEST_CASE("bilinear patch sampling equals the fixed-point formula bit for bit, i
   const ums::ImageView v = img.view();
   float out[33 * 33];
   int mismatches = 0, samples = 0;
-  // Every remainder of the eight-sample kernel, the tracker's windows and larger.
-  const int sizes[9] = {1, 4, 5, 6, 7, 9, 15, 17, 33};
+  // Every remainder of the eight-sample kernel, the tracker's windows and larger; 9 .. 16 take
+  // one 16-sample step a row, 16 with no row past the patch.
+  const int sizes[10] = {1, 4, 5, 6, 7, 9, 15, 16, 17, 33};
   // Interior origins (integer, tiny and near-1 fractions too: 0.9999 rounds to the next pixel's
   // full weight), plus ones hanging over each edge (the copied block).
   const float origins[9][2] = {{3.25f, 4.75f}, {20.5f, 11.125f}, {40.9f, 20.01f}, {12.0f, 7.0f}, {5.0001f, 9.9999f},
@@ -316,7 +317,7 @@ TEST_CASE("bilinear patch sampling equals the fixed-point formula bit for bit, i
     }
   }
   INFO(samples << " samples");
-  CHECK(samples == 13 * (1 + 16 + 25 + 36 + 49 + 81 + 225 + 289 + 1089));
+  CHECK(samples == 13 * (1 + 16 + 25 + 36 + 49 + 81 + 225 + 256 + 289 + 1089));
   CHECK(mismatches == 0);
   // Beyond the stack rows it was sized for: refused, not overrun.
   CHECK_THROWS_AS(ums::sample_patch_bilinear(v, 3.0f, 3.0f, ums::KltOptions::kMaxWindowPx + 3, out), std::invalid_argument);
