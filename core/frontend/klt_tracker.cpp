@@ -30,10 +30,11 @@ constexpr int kPxLanes = 8;
 
 #if defined(__ARM_NEON)
 inline int16x8_t load_px(const Px* p) { return vld1q_s16(p); }
-// acc += the products of a and b, widened (vpadal: pairwise add-accumulate long).
+// acc += the products of a and b: two products in each 32-bit lane (their sum below 2^31, as
+// pmaddwd's on SSE2), then widened (vpadal: pairwise add-accumulate long).
 inline int64x2_t add_products(int64x2_t acc, int16x8_t a, int16x8_t b) {
-  acc = vpadalq_s32(acc, vmull_s16(vget_low_s16(a), vget_low_s16(b)));
-  return vpadalq_s32(acc, vmull_s16(vget_high_s16(a), vget_high_s16(b)));
+  const int32x4_t p = vmlal_s16(vmull_s16(vget_low_s16(a), vget_low_s16(b)), vget_high_s16(a), vget_high_s16(b));
+  return vpadalq_s32(acc, p);
 }
 // acc += the values of a (pairwise add-accumulate long: a window's sum stays below 2^23).
 inline int32x4_t add_values(int32x4_t acc, int16x8_t a) { return vpadalq_s16(acc, a); }
