@@ -113,6 +113,11 @@ struct ErrorSums {
   float d = 0.0f, dgx = 0.0f, dgy = 0.0f;
 };
 
+ErrorSums error_sums_from(std::int64_t sd, std::int64_t sdx, std::int64_t sdy) {
+  return {static_cast<float>(sd), static_cast<float>(0.5 * static_cast<double>(sdx)),
+          static_cast<float>(0.5 * static_cast<double>(sdy))};
+}
+
 ErrorSums error_sums(const Px* t, const Px* w, const Px* gx, const Px* gy, int nn) {
   std::int64_t sd = 0, sdx = 0, sdy = 0;
   int k = 0;
@@ -140,9 +145,38 @@ ErrorSums error_sums(const Px* t, const Px* w, const Px* gx, const Px* gy, int n
     const std::int64_t d = t[k] - w[k];
     sd += d, sdx += d * gx[k], sdy += d * gy[k];
   }
-  return {static_cast<float>(sd), static_cast<float>(0.5 * static_cast<double>(sdx)),
-          static_cast<float>(0.5 * static_cast<double>(sdy))};
+  return error_sums_from(sd, sdx, sdy);
 }
+
+#if defined(__ARM_NEON) || defined(__SSE2__)
+// error_sums' three sums, vector by vector: d = T - W and the template gradients, 8 each.
+struct ErrorLanes {
+#if defined(__ARM_NEON)
+  int32x4_t d = vdupq_n_s32(0);
+  int64x2_t dx = vdupq_n_s64(0), dy = vdupq_n_s64(0);
+  static int16x8_t difference(const Px* t, uint16x8_t w) { return vsubq_s16(load_px(t), vreinterpretq_s16_u16(w)); }
+  // The lanes below `count` of v, the others 0.
+  static int16x8_t first_lanes(int16x8_t v, int count) {
+    const int16x8_t index = {0, 1, 2, 3, 4, 5, 6, 7};
+    return vandq_s16(v, vreinterpretq_s16_u16(vcltq_s16(index, vdupq_n_s16(static_cast<std::int16_t>(count)))));
+  }
+#else
+  __m128i d = _mm_setzero_si128(), dx = _mm_setzero_si128(), dy = _mm_setzero_si128();
+  static __m128i difference(const Px* t, __m128i w) { return _mm_sub_epi16(load_px(t), w); }
+  static __m128i first_lanes(__m128i v, int count) {
+    const __m128i index = _mm_setr_epi16(0, 1, 2, 3, 4, 5, 6, 7);
+    return _mm_and_si128(v, _mm_cmplt_epi16(index, _mm_set1_epi16(static_cast<short>(count))));
+  }
+#endif
+  template <class V>
+  void add(V diff, const Px* gx, const Px* gy) {
+    d = add_values(d, diff);
+    dx = add_products(dx, diff, load_px(gx));
+    dy = add_products(dy, diff, load_px(gy));
+  }
+  ErrorSums sums() const { return error_sums_from(total32(d), total64(dx), total64(dy)); }
+};
+#endif
 
 // T - W at 8 elements as two float lanes (exact: |T - W| <= 32640).
 inline void difference_lanes(const Px* t, const Px* w, FloatLanes* lo, FloatLanes* hi) {
@@ -264,18 +298,21 @@ inline Out sample_value(int v) {
   }
 }
 
-// 8 samples from two source rows (each read at i .. i + 8, 9 pixels): float grey levels, or (Px)
-// 128 times them, the integer sums themselves. The tracker works on the latter: its thresholds
-// are scaled to match.
-template <class Out>
-inline void sample_chunk(const std::uint8_t* r0, const std::uint8_t* r1, const Weights& w, Out* out) {
+#if defined(__ARM_NEON)
+using SumVec = uint16x8_t;  // 8 samples' integer sums
+#elif defined(__SSE2__)
+using SumVec = __m128i;
+#endif
+
+#if defined(__ARM_NEON) || defined(__SSE2__)
+// The integer sums of 8 samples from two source rows (each read at i .. i + 8, 9 pixels).
+inline SumVec chunk_sums(const std::uint8_t* r0, const std::uint8_t* r1, const Weights& w) {
 #if defined(__ARM_NEON)
   uint16x8_t s = vmull_u8(vld1_u8(r0), vdup_n_u8(static_cast<std::uint8_t>(w.w00)));
   s = vmlal_u8(s, vld1_u8(r0 + 1), vdup_n_u8(static_cast<std::uint8_t>(w.w01)));
   s = vmlal_u8(s, vld1_u8(r1), vdup_n_u8(static_cast<std::uint8_t>(w.w10)));
-  s = vmlal_u8(s, vld1_u8(r1 + 1), vdup_n_u8(static_cast<std::uint8_t>(w.w11)));
-  store_sums(s, out);
-#elif defined(__SSE2__)
+  return vmlal_u8(s, vld1_u8(r1 + 1), vdup_n_u8(static_cast<std::uint8_t>(w.w11)));
+#else
   const __m128i zero = _mm_setzero_si128();
   auto px = [zero](const std::uint8_t* p) {
     return _mm_unpacklo_epi8(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(p)), zero);
@@ -284,8 +321,60 @@ inline void sample_chunk(const std::uint8_t* r0, const std::uint8_t* r1, const W
   __m128i s = _mm_mullo_epi16(px(r0), _mm_set1_epi16(static_cast<short>(w.w00)));
   s = _mm_add_epi16(s, _mm_mullo_epi16(px(r0 + 1), _mm_set1_epi16(static_cast<short>(w.w01))));
   s = _mm_add_epi16(s, _mm_mullo_epi16(px(r1), _mm_set1_epi16(static_cast<short>(w.w10))));
-  s = _mm_add_epi16(s, _mm_mullo_epi16(px(r1 + 1), _mm_set1_epi16(static_cast<short>(w.w11))));
-  store_sums(s, out);
+  return _mm_add_epi16(s, _mm_mullo_epi16(px(r1 + 1), _mm_set1_epi16(static_cast<short>(w.w11))));
+#endif
+}
+
+// The sums of 16 samples (each source row read at i .. i + 16, 17 pixels): two chunks, on aarch64
+// in one step of 16-byte loads (the same integer sums; SSE2 gained nothing from it).
+inline void chunk16_sums(const std::uint8_t* r0, const std::uint8_t* r1, const Weights& w, SumVec* lo, SumVec* hi) {
+#if defined(__ARM_NEON) && defined(__aarch64__)
+  const uint8x16_t w00 = vdupq_n_u8(static_cast<std::uint8_t>(w.w00)), w01 = vdupq_n_u8(static_cast<std::uint8_t>(w.w01));
+  const uint8x16_t w10 = vdupq_n_u8(static_cast<std::uint8_t>(w.w10)), w11 = vdupq_n_u8(static_cast<std::uint8_t>(w.w11));
+  const uint8x16_t a0 = vld1q_u8(r0), a1 = vld1q_u8(r0 + 1), b0 = vld1q_u8(r1), b1 = vld1q_u8(r1 + 1);
+  uint16x8_t l = vmull_u8(vget_low_u8(a0), vget_low_u8(w00));
+  uint16x8_t h = vmull_high_u8(a0, w00);
+  l = vmlal_u8(l, vget_low_u8(a1), vget_low_u8(w01));
+  h = vmlal_high_u8(h, a1, w01);
+  l = vmlal_u8(l, vget_low_u8(b0), vget_low_u8(w10));
+  h = vmlal_high_u8(h, b0, w10);
+  *lo = vmlal_u8(l, vget_low_u8(b1), vget_low_u8(w11));
+  *hi = vmlal_high_u8(h, b1, w11);
+#else
+  *lo = chunk_sums(r0, r1, w);
+  *hi = chunk_sums(r0 + kChunk, r1 + kChunk, w);
+#endif
+}
+
+// The sums of 8 samples two pixels apart, each from pixels 2i and 2i + 1 of the two source rows
+// (16 bytes read from each): chunk_sums' formula on the even and odd pixels.
+inline SumVec chunk_step2_sums(const std::uint8_t* r0, const std::uint8_t* r1, const Weights& w) {
+#if defined(__ARM_NEON)
+  const uint8x8x2_t a = vld2_u8(r0), b = vld2_u8(r1);  // val[0]: pixels 2i, val[1]: 2i + 1
+  uint16x8_t s = vmull_u8(a.val[0], vdup_n_u8(static_cast<std::uint8_t>(w.w00)));
+  s = vmlal_u8(s, a.val[1], vdup_n_u8(static_cast<std::uint8_t>(w.w01)));
+  s = vmlal_u8(s, b.val[0], vdup_n_u8(static_cast<std::uint8_t>(w.w10)));
+  return vmlal_u8(s, b.val[1], vdup_n_u8(static_cast<std::uint8_t>(w.w11)));
+#else
+  const __m128i low_bytes = _mm_set1_epi16(0x00FF);
+  const __m128i a = _mm_loadu_si128(reinterpret_cast<const __m128i*>(r0));
+  const __m128i b = _mm_loadu_si128(reinterpret_cast<const __m128i*>(r1));
+  // 16-bit lanes: the low byte is pixel 2i, the high byte pixel 2i + 1.
+  __m128i s = _mm_mullo_epi16(_mm_and_si128(a, low_bytes), _mm_set1_epi16(static_cast<short>(w.w00)));
+  s = _mm_add_epi16(s, _mm_mullo_epi16(_mm_srli_epi16(a, 8), _mm_set1_epi16(static_cast<short>(w.w01))));
+  s = _mm_add_epi16(s, _mm_mullo_epi16(_mm_and_si128(b, low_bytes), _mm_set1_epi16(static_cast<short>(w.w10))));
+  return _mm_add_epi16(s, _mm_mullo_epi16(_mm_srli_epi16(b, 8), _mm_set1_epi16(static_cast<short>(w.w11))));
+#endif
+}
+#endif
+
+// 8 samples from two source rows (each read at i .. i + 8, 9 pixels): float grey levels, or (Px)
+// 128 times them, the integer sums themselves. The tracker works on the latter: its thresholds
+// are scaled to match.
+template <class Out>
+inline void sample_chunk(const std::uint8_t* r0, const std::uint8_t* r1, const Weights& w, Out* out) {
+#if defined(__ARM_NEON) || defined(__SSE2__)
+  store_sums(chunk_sums(r0, r1, w), out);
 #else
   for (int i = 0; i < kChunk; ++i) {
     out[i] = sample_value<Out>(w.w00 * r0[i] + w.w01 * r0[i + 1] + w.w10 * r1[i] + w.w11 * r1[i + 1]);
@@ -293,22 +382,12 @@ inline void sample_chunk(const std::uint8_t* r0, const std::uint8_t* r1, const W
 #endif
 }
 
-// 16 samples from two source rows (each read at i .. i + 16, 17 pixels): two chunks, on aarch64 in
-// one step of 16-byte loads (the same integer sums; SSE2 gained nothing from it).
+// 16 samples from two source rows (each read at i .. i + 16, 17 pixels).
 template <class Out>
 inline void sample_chunk16(const std::uint8_t* r0, const std::uint8_t* r1, const Weights& w, Out* out) {
-#if defined(__ARM_NEON) && defined(__aarch64__)
-  const uint8x16_t w00 = vdupq_n_u8(static_cast<std::uint8_t>(w.w00)), w01 = vdupq_n_u8(static_cast<std::uint8_t>(w.w01));
-  const uint8x16_t w10 = vdupq_n_u8(static_cast<std::uint8_t>(w.w10)), w11 = vdupq_n_u8(static_cast<std::uint8_t>(w.w11));
-  const uint8x16_t a0 = vld1q_u8(r0), a1 = vld1q_u8(r0 + 1), b0 = vld1q_u8(r1), b1 = vld1q_u8(r1 + 1);
-  uint16x8_t lo = vmull_u8(vget_low_u8(a0), vget_low_u8(w00));
-  uint16x8_t hi = vmull_high_u8(a0, w00);
-  lo = vmlal_u8(lo, vget_low_u8(a1), vget_low_u8(w01));
-  hi = vmlal_high_u8(hi, a1, w01);
-  lo = vmlal_u8(lo, vget_low_u8(b0), vget_low_u8(w10));
-  hi = vmlal_high_u8(hi, b0, w10);
-  lo = vmlal_u8(lo, vget_low_u8(b1), vget_low_u8(w11));
-  hi = vmlal_high_u8(hi, b1, w11);
+#if defined(__ARM_NEON) || defined(__SSE2__)
+  SumVec lo, hi;
+  chunk16_sums(r0, r1, w, &lo, &hi);
   store_sums(lo, out);
   store_sums(hi, out + kChunk);
 #else
@@ -415,23 +494,8 @@ void sample_fixed(const ImageView& image, float x, float y, int n, Out* out) {
 // read from each): the same integer formula as sample_chunk, on the even and odd pixels.
 template <class Out>
 inline void sample_chunk_step2(const std::uint8_t* r0, const std::uint8_t* r1, const Weights& w, Out* out) {
-#if defined(__ARM_NEON)
-  const uint8x8x2_t a = vld2_u8(r0), b = vld2_u8(r1);  // val[0]: pixels 2i, val[1]: 2i + 1
-  uint16x8_t s = vmull_u8(a.val[0], vdup_n_u8(static_cast<std::uint8_t>(w.w00)));
-  s = vmlal_u8(s, a.val[1], vdup_n_u8(static_cast<std::uint8_t>(w.w01)));
-  s = vmlal_u8(s, b.val[0], vdup_n_u8(static_cast<std::uint8_t>(w.w10)));
-  s = vmlal_u8(s, b.val[1], vdup_n_u8(static_cast<std::uint8_t>(w.w11)));
-  store_sums(s, out);
-#elif defined(__SSE2__)
-  const __m128i low_bytes = _mm_set1_epi16(0x00FF);
-  const __m128i a = _mm_loadu_si128(reinterpret_cast<const __m128i*>(r0));
-  const __m128i b = _mm_loadu_si128(reinterpret_cast<const __m128i*>(r1));
-  // 16-bit lanes: the low byte is pixel 2i, the high byte pixel 2i + 1.
-  __m128i s = _mm_mullo_epi16(_mm_and_si128(a, low_bytes), _mm_set1_epi16(static_cast<short>(w.w00)));
-  s = _mm_add_epi16(s, _mm_mullo_epi16(_mm_srli_epi16(a, 8), _mm_set1_epi16(static_cast<short>(w.w01))));
-  s = _mm_add_epi16(s, _mm_mullo_epi16(_mm_and_si128(b, low_bytes), _mm_set1_epi16(static_cast<short>(w.w10))));
-  s = _mm_add_epi16(s, _mm_mullo_epi16(_mm_srli_epi16(b, 8), _mm_set1_epi16(static_cast<short>(w.w11))));
-  store_sums(s, out);
+#if defined(__ARM_NEON) || defined(__SSE2__)
+  store_sums(chunk_step2_sums(r0, r1, w), out);
 #else
   for (int i = 0; i < kChunk; ++i) {
     out[i] = sample_value<Out>(w.w00 * r0[2 * i] + w.w01 * r0[2 * i + 1] + w.w10 * r1[2 * i] + w.w11 * r1[2 * i + 1]);
@@ -721,6 +785,46 @@ void sample_window(const ImageView& J, float x, float y, const WindowGrid& g, Px
   }
 }
 
+// sample_window, then error_sums over the window, in one pass over its rows when a row is one
+// vector step (the dense grid 9..16 samples wide, the sparse grid 8) and the sampler reads the
+// image in place: the same samples into out and the same integer sums (exact in any order). The
+// dense rows' sums take the row's n samples alone (the vector's last 16 - n lanes, the next
+// row's, masked out); out and the template arrays are read and written up to 16 - n samples past
+// the window, inside their spare lanes.
+ErrorSums sample_error_sums(const ImageView& J, float x, float y, const WindowGrid& g, const TemplateRef& t, Px* out) {
+#if defined(__ARM_NEON) || defined(__SSE2__)
+  const int n = g.side;
+  const PatchOrigin o = patch_origin(x, y);
+  const long stride = J.stride;
+  const std::uint8_t* r = J.row(std::max(o.y0, 0)) + std::max(o.x0, 0);
+  if (g.step == 1 && n > kChunk && n <= 2 * kChunk && o.x0 >= 0 && o.x0 + 2 * kChunk + 1 <= J.width && o.y0 >= 0 &&
+      o.y0 + n < J.height) {
+    ErrorLanes acc;
+    for (int k = 0; k < n * n; k += n, r += stride) {
+      SumVec lo, hi;
+      chunk16_sums(r, r + stride, o.w, &lo, &hi);
+      store_sums(lo, out + k);
+      store_sums(hi, out + k + kChunk);
+      acc.add(ErrorLanes::difference(t.tmpl + k, lo), t.gx + k, t.gy + k);
+      acc.add(ErrorLanes::first_lanes(ErrorLanes::difference(t.tmpl + k + kChunk, hi), n - kChunk), t.gx + k + kChunk,
+              t.gy + k + kChunk);
+    }
+    return acc.sums();
+  }
+  if (g.step == 2 && n == kChunk && o.x0 >= 0 && o.x0 + 2 * kChunk <= J.width && o.y0 >= 0 && o.y0 + 2 * n <= J.height) {
+    ErrorLanes acc;
+    for (int k = 0; k < n * n; k += n, r += 2 * stride) {
+      const SumVec s = chunk_step2_sums(r, r + stride, o.w);
+      store_sums(s, out + k);
+      acc.add(ErrorLanes::difference(t.tmpl + k, s), t.gx + k, t.gy + k);
+    }
+    return acc.sums();
+  }
+#endif
+  sample_window(J, x, y, g, out);
+  return error_sums(t.tmpl, out, t.gx, t.gy, g.samples());
+}
+
 // Level `level`'s template of p_prev in prev (p: the same point in the level's pixels): read
 // from the cache slot when it holds it, else sampled, into the slot when there is one. False
 // when the window is untextured.
@@ -770,11 +874,10 @@ bool iterate_level(const ImageView& J, const Eigen::Vector2f& p, const Eigen::Ve
           qx < static_cast<float>(J.width + half) && qy < static_cast<float>(J.height + half))) {
       return false;
     }
-    sample_window(J, qx - static_cast<float>(half), qy - static_cast<float>(half), grid, warped);
     // Intensity offset between the windows (exposure, or the two cameras' gains) removed:
     // e = (T - mean T) - (J - mean J) = d - mean d with d = T - J, so
     // sum e g = sum d g - mean(d) sum g (d is small near convergence: no cancellation).
-    const ErrorSums es = error_sums(t.tmpl, warped, t.gx, t.gy, nn);
+    const ErrorSums es = sample_error_sums(J, qx - static_cast<float>(half), qy - static_cast<float>(half), grid, t, warped);
     const float mean_d = es.d * inv_area;
     const float bx = es.dgx - mean_d * gs.gx;
     const float by = es.dgy - mean_d * gs.gy;

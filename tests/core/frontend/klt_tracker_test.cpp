@@ -4,12 +4,14 @@
 #include <cmath>
 #include <cstdint>
 #include <stdexcept>
+#include <vector>
 
 #include <catch2/catch.hpp>
 
 #include "core/frontend/corner_detector.hpp"
 #include "core/frontend/frontend.hpp"
 #include "core/frontend/image_pyramid.hpp"
+#include "core/frontend/klt_template_cache.hpp"
 #include "tests/core/frontend/synthetic_images.hpp"
 
 namespace {
@@ -470,4 +472,63 @@ TEST_CASE("without a cached template a sparse level tests the texture of its spa
   CHECK(ums::klt_track(pa, pb, 1, opt, from, &direct) == ums::Status::kOk);
   CHECK(ums::klt_track(pa, pb, 1, opt, from, &dense, &cache2, 0) == ums::Status::kOk);
   CHECK(direct == dense);
+}
+
+// img inside a larger image whose extra columns and rows repeat its last column and row.
+ums::test::GreyImage extended(const ums::test::GreyImage& img, int extra) {
+  ums::test::GreyImage out(img.width + extra, img.height + extra);
+  for (int y = 0; y < out.height; ++y)
+    for (int x = 0; x < out.width; ++x)
+      out.at(x, y) = img.pixels[static_cast<std::size_t>(std::min(y, img.height - 1)) * img.width + std::min(x, img.width - 1)];
+  return out;
+}
+
+TEST_CASE("KLT iterations take the same samples and sums whether the window is read in place or copied at the edge") {
+  // Every sample any window takes is the same in the image and in its extension. By the right and
+  // bottom edges the image's windows are copied (the sampler would read one pixel past the edge)
+  // and sampled and summed apart, the extension's read in place and summed in the same pass, whose
+  // rows carry one sample past the window to mask out: the same tracks, bit for bit. The sparse
+  // windows' templates come from a cache (its blocks' spare lanes read): without one, a sparse
+  // template by the edge is cut from the whole one and tested as it, which can differ from
+  // the direct sparse template away from the edge (klt_tracker.hpp, sparse_from_level).
+  const int w = 160, h = 120;
+  const ums::test::BlobTexture tex(w, h, 140, 4242u);
+  const Eigen::Vector2d pivot(w / 2.0, h / 2.0);
+  const ums::test::GreyImage a = tex.render(w, h), b = tex.render(w, h, 0.0, Eigen::Vector2d(0.6, -0.45), pivot);
+  const ums::test::GreyImage ea = extended(a, 40), eb = extended(b, 40);
+  ums::ImagePyramid pa(w, h, 1), pb(w, h, 1), pea(w + 40, h + 40, 1), peb(w + 40, h + 40, 1);
+  REQUIRE(pa.build(a.view()) == ums::Status::kOk);
+  REQUIRE(pb.build(b.view()) == ums::Status::kOk);
+  REQUIRE(pea.build(ea.view()) == ums::Status::kOk);
+  REQUIRE(peb.build(eb.view()) == ums::Status::kOk);
+  int tracks = 0, tracked = 0, differ = 0;
+  for (const int sparse_from : {ums::capacity::kMaxPyramidLevels, 0}) {  // whole windows, then sparse ones
+    ums::KltOptions opt;
+    opt.sparse_from_level = sparse_from;
+    std::vector<Eigen::Vector2f> starts;
+    // Window origins one pixel either side of where the image's sampler copies (right: x0 + 17 > w
+    // whole, x0 + 16 > w sparse; bottom: y0 + 15 >= h), and inside.
+    for (float t = 12.0f; t < 100.0f; t += 6.3f) {
+      for (const float d : {8.1f, 8.6f, 9.3f, 9.8f, 10.4f, 11.7f}) {
+        starts.emplace_back(static_cast<float>(w) - d, t);
+        starts.emplace_back(t + 20.0f, static_cast<float>(h) - d);
+      }
+    }
+    const int n = static_cast<int>(starts.size());
+    ums::KltTemplateCache cache_img(n, 1, ums::klt_template_units(opt.window_px));
+    ums::KltTemplateCache cache_ext(n, 1, ums::klt_template_units(opt.window_px));
+    const bool cached = sparse_from == 0;
+    for (int i = 0; i < n; ++i) {
+      const Eigen::Vector2f& p = starts[static_cast<std::size_t>(i)];
+      Eigen::Vector2f q_img = p, q_ext = p;
+      const ums::Status s_img = ums::klt_track(pa, pb, 1, opt, p, &q_img, cached ? &cache_img : nullptr, i);
+      const ums::Status s_ext = ums::klt_track(pea, peb, 1, opt, p, &q_ext, cached ? &cache_ext : nullptr, i);
+      ++tracks;
+      tracked += s_img == ums::Status::kOk ? 1 : 0;
+      differ += s_img != s_ext || (s_img == ums::Status::kOk && (q_img.x() != q_ext.x() || q_img.y() != q_ext.y())) ? 1 : 0;
+    }
+  }
+  INFO(tracked << " of " << tracks << " tracked");
+  CHECK(tracked > tracks / 2);
+  CHECK(differ == 0);
 }
