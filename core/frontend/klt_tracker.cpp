@@ -481,12 +481,18 @@ void sample_fixed(const ImageView& image, float x, float y, int n, Out* out) {
       rows[j] = copy[j];
     }
   }
-  // Each row in whole chunks: the samples past n land on the next row's start, which that row
-  // overwrites; a row whose chunks would run past the patch goes through a scratch row.
+  // Each row in whole chunks as above: the samples past n land on the next row's start, which
+  // that row overwrites; a row whose chunks would run past the patch takes its n samples exactly
+  // (below a chunk, through the scratch row).
   for (int j = 0; j < n; ++j) {
-    Out* o = j * n + cols <= n * n ? out + j * n : scratch;
-    for (int i = 0; i < cols; i += kChunk) sample_chunk<Out>(rows[j] + i, rows[j + 1] + i, w, o + i);
-    if (o == scratch) std::memcpy(out + j * n, scratch, sizeof(Out) * static_cast<std::size_t>(n));
+    if (j * n + cols <= n * n) {
+      sample_row<Out>(rows[j], rows[j + 1], w, cols, out + j * n);
+    } else if (n >= kChunk) {
+      sample_row_exact<Out>(rows[j], rows[j + 1], w, n, out + j * n);
+    } else {
+      sample_row<Out>(rows[j], rows[j + 1], w, cols, scratch);
+      std::memcpy(out + j * n, scratch, sizeof(Out) * static_cast<std::size_t>(n));
+    }
   }
 }
 
