@@ -454,7 +454,7 @@ void sample_fixed(const ImageView& image, float x, float y, int n, Out* out) {
     const std::uint8_t* r = image.row(y0) + x0;
     const int direct = std::min(n, n * n >= cols ? (n * n - cols) / n + 1 : 0);
     int j = 0;
-    if (cols == 2 * kChunk) {  // the tracker's 15 px windows (and 9..16): one step a row
+    if (cols == 2 * kChunk) {  // 9..16 samples a row (the tracker's templates are 17): one step a row
       for (Out* o = out; j < direct; ++j, r += stride, o += n) sample_chunk16<Out>(r, r + stride, w, o);
     } else {
       for (; j < direct; ++j, r += stride) sample_row<Out>(r, r + stride, w, cols, out + j * n);
@@ -529,12 +529,16 @@ void sample_fixed_step2(const ImageView& image, float x, float y, int n, Out* ou
     // rows in place, walked by stride.
     const long stride = image.stride;
     const std::uint8_t* r = image.row(y0) + x0;
-    if (n == kChunk) {  // one step a row, the rows walked by pointer
-      for (Out* o = out; o < out + n * n; o += n, r += 2 * stride) sample_chunk_step2<Out>(r, r + stride, w, o);
+    // Row j's source rows from its index (a pointer stepped past the last row could leave the
+    // image's storage: its rows end at y0 + 2n <= height).
+    if (n == kChunk) {  // one step a row
+      for (int j = 0; j < n; ++j) sample_chunk_step2<Out>(r + 2 * j * stride, r + (2 * j + 1) * stride, w, out + j * n);
       return;
     }
-    for (int j = 0; j < n; ++j, r += 2 * stride)
-      for (int i = 0; i < n; i += kChunk) sample_chunk_step2<Out>(r + 2 * i, r + stride + 2 * i, w, out + j * n + i);
+    for (int j = 0; j < n; ++j) {
+      const std::uint8_t* rj = r + 2 * j * stride;
+      for (int i = 0; i < n; i += kChunk) sample_chunk_step2<Out>(rj + 2 * i, rj + stride + 2 * i, w, out + j * n + i);
+    }
     return;
   }
   // Sample row j reads source rows y0 + 2j and y0 + 2j + 1.
@@ -666,6 +670,18 @@ constexpr bool sparse_reads_fit() {
   return true;
 }
 static_assert(sparse_reads_fit(), "even_samples reads past a template's storage");
+
+// sample_error_sums' dense rows (9 .. 16 samples, one vector step each) read a template's arrays
+// and write the window buffer up to 16 - n samples past the window: inside template_stride(n)
+// and the workspace's arrays, for every odd window it serves.
+constexpr bool fused_reads_fit() {
+  for (int n = 9; n <= 2 * kPxLanes; n += 2) {
+    const int end = (n - 1) * n + 2 * kPxLanes;  // one past the last unit touched
+    if (end > template_stride(n) || end > KltOptions::kMaxWindowPx * KltOptions::kMaxWindowPx + kPxLanes) return false;
+  }
+  return true;
+}
+static_assert(fused_reads_fit(), "sample_error_sums reads past a template's storage");
 
 // A cache block: template, gradients, then the sums and the usable flag (floats, copied in and
 // out: kSumFloats of them in 2 * kSumFloats units).
@@ -819,8 +835,8 @@ ErrorSums sample_error_sums(const ImageView& J, float x, float y, const WindowGr
   }
   if (g.step == 2 && n == kChunk && o.x0 >= 0 && o.x0 + 2 * kChunk <= J.width && o.y0 >= 0 && o.y0 + 2 * n <= J.height) {
     ErrorLanes acc;
-    for (int k = 0; k < n * n; k += n, r += 2 * stride) {
-      const SumVec s = chunk_step2_sums(r, r + stride, o.w);
+    for (int j = 0, k = 0; j < n; ++j, k += n) {  // row j's source rows by index, as sample_fixed_step2
+      const SumVec s = chunk_step2_sums(r + 2 * j * stride, r + (2 * j + 1) * stride, o.w);
       store_sums(s, out + k);
       acc.add(ErrorLanes::difference(t.tmpl + k, s), t.gx + k, t.gy + k);
     }

@@ -487,10 +487,12 @@ TEST_CASE("KLT iterations take the same samples and sums whether the window is r
   // Every sample any window takes is the same in the image and in its extension. By the right and
   // bottom edges the image's windows are copied (the sampler would read one pixel past the edge)
   // and sampled and summed apart, the extension's read in place and summed in the same pass, whose
-  // rows carry one sample past the window to mask out: the same tracks, bit for bit. The sparse
-  // windows' templates come from a cache (its blocks' spare lanes read): without one, a sparse
-  // template by the edge is cut from the whole one and tested as it, which can differ from
-  // the direct sparse template away from the edge (klt_tracker.hpp, sparse_from_level).
+  // rows carry 16 - n samples past a 9..15 px window to mask out: the same tracks, bit for bit.
+  // Windows 9 to 15 px (1 to 7 lanes kept of the second vector), templates sampled each time or
+  // kept in a cache block (read up to its spare lanes); the sparse windows (8 samples a row at
+  // 15 px) always from a cache: without one, a sparse template by the edge is cut from the whole
+  // one and tested as it, which can differ from the direct sparse template away from the edge
+  // (klt_tracker.hpp, sparse_from_level).
   const int w = 160, h = 120;
   const ums::test::BlobTexture tex(w, h, 140, 4242u);
   const Eigen::Vector2d pivot(w / 2.0, h / 2.0);
@@ -501,34 +503,43 @@ TEST_CASE("KLT iterations take the same samples and sums whether the window is r
   REQUIRE(pb.build(b.view()) == ums::Status::kOk);
   REQUIRE(pea.build(ea.view()) == ums::Status::kOk);
   REQUIRE(peb.build(eb.view()) == ums::Status::kOk);
+  struct Mode {
+    int sparse_from;
+    bool cached;
+  };
+  const Mode modes[3] = {{ums::capacity::kMaxPyramidLevels, false}, {ums::capacity::kMaxPyramidLevels, true}, {0, true}};
   int tracks = 0, tracked = 0, differ = 0;
-  for (const int sparse_from : {ums::capacity::kMaxPyramidLevels, 0}) {  // whole windows, then sparse ones
-    ums::KltOptions opt;
-    opt.sparse_from_level = sparse_from;
-    std::vector<Eigen::Vector2f> starts;
-    // Window origins one pixel either side of where the image's sampler copies (right: x0 + 17 > w
-    // whole, x0 + 16 > w sparse; bottom: y0 + 15 >= h), and inside.
-    for (float t = 12.0f; t < 100.0f; t += 6.3f) {
-      for (const float d : {8.1f, 8.6f, 9.3f, 9.8f, 10.4f, 11.7f}) {
-        starts.emplace_back(static_cast<float>(w) - d, t);
-        starts.emplace_back(t + 20.0f, static_cast<float>(h) - d);
+  for (const int window : {9, 11, 13, 15}) {
+    for (const Mode& mode : modes) {
+      ums::KltOptions opt;
+      opt.window_px = window;
+      opt.sparse_from_level = mode.sparse_from;
+      // Window origins one pixel either side of where the image's sampler copies (right: x0 + 17 > w
+      // whole, x0 + 16 > w sparse; bottom: y0 + n >= h), and inside; x0 = floor(x - half).
+      const float edge = static_cast<float>(17 - window / 2);
+      std::vector<Eigen::Vector2f> starts;
+      for (float t = 12.0f; t < 100.0f; t += 6.3f) {
+        for (const float d : {-1.9f, -1.4f, -0.7f, -0.2f, 0.4f, 1.7f}) {
+          starts.emplace_back(static_cast<float>(w) - edge - d, t);
+          starts.emplace_back(t + 20.0f, static_cast<float>(h) - edge - d);
+        }
       }
-    }
-    const int n = static_cast<int>(starts.size());
-    ums::KltTemplateCache cache_img(n, 1, ums::klt_template_units(opt.window_px));
-    ums::KltTemplateCache cache_ext(n, 1, ums::klt_template_units(opt.window_px));
-    const bool cached = sparse_from == 0;
-    for (int i = 0; i < n; ++i) {
-      const Eigen::Vector2f& p = starts[static_cast<std::size_t>(i)];
-      Eigen::Vector2f q_img = p, q_ext = p;
-      const ums::Status s_img = ums::klt_track(pa, pb, 1, opt, p, &q_img, cached ? &cache_img : nullptr, i);
-      const ums::Status s_ext = ums::klt_track(pea, peb, 1, opt, p, &q_ext, cached ? &cache_ext : nullptr, i);
-      ++tracks;
-      tracked += s_img == ums::Status::kOk ? 1 : 0;
-      differ += s_img != s_ext || (s_img == ums::Status::kOk && (q_img.x() != q_ext.x() || q_img.y() != q_ext.y())) ? 1 : 0;
+      const int n = static_cast<int>(starts.size());
+      ums::KltTemplateCache cache_img(n, 1, ums::klt_template_units(opt.window_px));
+      ums::KltTemplateCache cache_ext(n, 1, ums::klt_template_units(opt.window_px));
+      for (int i = 0; i < n; ++i) {
+        const Eigen::Vector2f& p = starts[static_cast<std::size_t>(i)];
+        Eigen::Vector2f q_img = p, q_ext = p;
+        const ums::Status s_img = ums::klt_track(pa, pb, 1, opt, p, &q_img, mode.cached ? &cache_img : nullptr, i);
+        const ums::Status s_ext = ums::klt_track(pea, peb, 1, opt, p, &q_ext, mode.cached ? &cache_ext : nullptr, i);
+        ++tracks;
+        tracked += s_img == ums::Status::kOk ? 1 : 0;
+        differ += s_img != s_ext || (s_img == ums::Status::kOk && (q_img.x() != q_ext.x() || q_img.y() != q_ext.y())) ? 1 : 0;
+      }
     }
   }
   INFO(tracked << " of " << tracks << " tracked");
+  CHECK(tracks == 4 * 3 * 14 * 12);
   CHECK(tracked > tracks / 2);
   CHECK(differ == 0);
 }
