@@ -1284,11 +1284,7 @@ TEST_CASE("Reusing the factorization: the step after the gradient pass is the ke
         opt.reuse_gauss_newton_matrix = true;
         opt.reuse_factorization = reuse;
         REQUIRE(usable(s.problem->solve(opt, sum)));
-        std::vector<double> x;
-        for (const auto& p : s.w->poses) x.insert(x.end(), p.begin(), p.end());
-        for (const auto& sb : s.w->speed_bias) x.insert(x.end(), sb.begin(), sb.end());
-        for (const double d : s.w->inv_depth) x.push_back(d);
-        return x;
+        return snapshot(*s.w);
       };
       SolverSummary fresh, kept;
       const std::vector<double> x_fresh = run(false, &fresh), x_kept = run(true, &kept);
@@ -1374,11 +1370,7 @@ TEST_CASE("Reusing the Gauss-Newton matrix: the gradient pass through point lift
     REQUIRE(usable(problem->solve(opt, &sum)));
     REQUIRE(sum.successful_steps == 2);
     CHECK(sum.gradient_passes == (reuse ? 1 : 0));
-    std::vector<double> x;
-    for (const auto& p : w->poses) x.insert(x.end(), p.begin(), p.end());
-    for (const auto& sb : w->speed_bias) x.insert(x.end(), sb.begin(), sb.end());
-    for (const double d : w->inv_depth) x.push_back(d);
-    return x;
+    return snapshot(*w);
   };
   const std::vector<double> plain = run(false, true), lifted = run(true, true), whole = run(false, false);
   double d_lift = 0.0, d_whole = 0.0;
