@@ -454,11 +454,7 @@ void sample_fixed(const ImageView& image, float x, float y, int n, Out* out) {
     const std::uint8_t* r = image.row(y0) + x0;
     const int direct = std::min(n, n * n >= cols ? (n * n - cols) / n + 1 : 0);
     int j = 0;
-    if (cols == 2 * kChunk) {  // 9..16 samples a row (the tracker's templates are 17): one step a row
-      for (Out* o = out; j < direct; ++j, r += stride, o += n) sample_chunk16<Out>(r, r + stride, w, o);
-    } else {
-      for (; j < direct; ++j, r += stride) sample_row<Out>(r, r + stride, w, cols, out + j * n);
-    }
+    for (; j < direct; ++j, r += stride) sample_row<Out>(r, r + stride, w, cols, out + j * n);
     for (; j < n; ++j, r += stride) {
       if (n >= kChunk) {
         sample_row_exact<Out>(r, r + stride, w, n, out + j * n);
