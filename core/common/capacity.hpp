@@ -11,6 +11,9 @@ namespace ums::capacity {
 inline constexpr int kMaxImageWidth = 1280;   // px, D455 IR max mode
 inline constexpr int kMaxImageHeight = 800;   // px
 inline constexpr int kMaxPyramidLevels = 4;   // the paper's 4-level 2D tracker
+// px, repeated edge pixels around every pyramid level: the KLT reads a window by an edge in place
+// (a 31 px window's template, 33 px, reads 49 columns from its origin, up to 32 left of the image)
+inline constexpr int kPyramidMarginPx = 48;
 
 // Front end
 inline constexpr std::size_t kMaxFeaturesPerCamera = 400;  // VINS-Fusion max_cnt is 150-200

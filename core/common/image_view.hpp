@@ -13,6 +13,9 @@ struct ImageView {
   int width = 0;       // px
   int height = 0;      // px
   int stride = 0;      // bytes between rows
+  // px that may be read outside each edge (rows -margin .. height + margin - 1, columns likewise),
+  // each a copy of the nearest edge pixel: what a reader clamping its coordinates would see.
+  int margin = 0;
 
   bool valid() const { return data != nullptr && width > 0 && height > 0 && stride >= width; }
   const std::uint8_t* row(int y) const { return data + static_cast<long>(y) * stride; }

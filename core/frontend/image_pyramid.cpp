@@ -7,7 +7,7 @@
 
 namespace ums {
 
-ImagePyramid::ImagePyramid(int width, int height, int levels) : levels_(levels) {
+ImagePyramid::ImagePyramid(int width, int height, int levels, int margin_px) : levels_(levels) {
   if (width <= 0 || height <= 0 || width > capacity::kMaxImageWidth || height > capacity::kMaxImageHeight) {
     throw std::runtime_error("ImagePyramid: image size " + std::to_string(width) + "x" + std::to_string(height) +
                              " outside 1.." + std::to_string(capacity::kMaxImageWidth) + "x" +
@@ -17,10 +17,15 @@ ImagePyramid::ImagePyramid(int width, int height, int levels) : levels_(levels) 
     throw std::runtime_error("ImagePyramid: levels " + std::to_string(levels) + " outside 1.." +
                              std::to_string(capacity::kMaxPyramidLevels));
   }
+  if (margin_px < 0 || margin_px > capacity::kPyramidMarginPx) {
+    throw std::runtime_error("ImagePyramid: margin " + std::to_string(margin_px) + " px outside 0.." +
+                             std::to_string(capacity::kPyramidMarginPx));
+  }
+  const int m = margin_px;
   std::size_t total = 0;
   int w = width, h = height;
   for (int l = 0; l < levels; ++l) {
-    total += static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
+    total += static_cast<std::size_t>(w + 2 * m) * static_cast<std::size_t>(h + 2 * m);
     w = std::max(1, (w + 1) / 2);
     h = std::max(1, (h + 1) / 2);
   }
@@ -31,11 +36,13 @@ ImagePyramid::ImagePyramid(int width, int height, int levels) : levels_(levels) 
   h = height;
   for (int l = 0; l < levels; ++l) {
     ImageView& v = views_[l];
-    v.data = storage_.data() + offset;
+    v.stride = w + 2 * m;
+    v.data = storage_.data() + offset + static_cast<std::size_t>(m) * static_cast<std::size_t>(v.stride) +
+             static_cast<std::size_t>(m);
     v.width = w;
     v.height = h;
-    v.stride = w;
-    offset += static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
+    v.margin = m;
+    offset += static_cast<std::size_t>(v.stride) * static_cast<std::size_t>(h + 2 * m);
     w = std::max(1, (w + 1) / 2);
     h = std::max(1, (h + 1) / 2);
   }
@@ -77,6 +84,35 @@ void downsample(const ImageView& src, const ImageView& dst, std::uint16_t* row_t
   }
 }
 
+// Row r's ends repeated m pixels sideways (M: m known at compile time, the stores inlined).
+template <int M>
+inline void fill_sides(std::uint8_t* r, int width, int m) {
+  std::memset(r - (M > 0 ? M : m), r[0], static_cast<std::size_t>(M > 0 ? M : m));
+  std::memset(r + width, r[width - 1], static_cast<std::size_t>(M > 0 ? M : m));
+}
+
+// The margin around v's pixels: each row's ends repeated sideways, then the first and last rows
+// (margins included) repeated up and down, so a margin pixel is the image's pixel at the clamped
+// coordinates.
+void fill_margin(const ImageView& v) {
+  const int m = v.margin;
+  if (m == 0) return;
+  auto* first = const_cast<std::uint8_t*>(v.row(0));  // the pyramid owns these bytes
+  for (int y = 0; y < v.height; ++y) {
+    std::uint8_t* r = first + static_cast<long>(y) * v.stride;
+    if (m == capacity::kPyramidMarginPx)
+      fill_sides<capacity::kPyramidMarginPx>(r, v.width, m);
+    else
+      fill_sides<0>(r, v.width, m);
+  }
+  const std::size_t bytes = static_cast<std::size_t>(v.stride);
+  std::uint8_t* last = first + static_cast<long>(v.height - 1) * v.stride;
+  for (int k = 1; k <= m; ++k) {
+    std::memcpy(first - static_cast<long>(k) * v.stride - m, first - m, bytes);
+    std::memcpy(last + static_cast<long>(k) * v.stride - m, last - m, bytes);
+  }
+}
+
 }  // namespace
 
 Status ImagePyramid::build(const ImageView& image) {
@@ -84,12 +120,9 @@ Status ImagePyramid::build(const ImageView& image) {
   if (!image.valid() || image.width != l0.width || image.height != l0.height) return Status::kInvalidInput;
   ++generation_;
   auto* dst = const_cast<std::uint8_t*>(l0.data);
-  if (image.stride == l0.width) {
-    std::memcpy(dst, image.data, static_cast<std::size_t>(l0.width) * static_cast<std::size_t>(l0.height));
-  } else {
-    for (int y = 0; y < l0.height; ++y) std::memcpy(dst + static_cast<long>(y) * l0.stride, image.row(y), static_cast<std::size_t>(l0.width));
-  }
+  for (int y = 0; y < l0.height; ++y) std::memcpy(dst + static_cast<long>(y) * l0.stride, image.row(y), static_cast<std::size_t>(l0.width));
   for (int l = 1; l < levels_; ++l) downsample(views_[l - 1], views_[l], row_tmp_.data());
+  for (int l = 0; l < levels_; ++l) fill_margin(views_[l]);
   return Status::kOk;
 }
 

@@ -15,12 +15,14 @@ namespace ums {
 
 class ImagePyramid {
  public:
-  // Allocates every level for a width x height image (start-up only). Throws std::runtime_error
-  // when the size or level count exceeds the capacities in core/common/capacity.hpp.
-  ImagePyramid(int width, int height, int levels);
+  // Allocates every level for a width x height image (start-up only), each with margin_px
+  // repeated edge pixels around it (ImageView::margin; 0 .. capacity::kPyramidMarginPx). Throws
+  // std::runtime_error when the size, level count or margin exceeds the capacities in
+  // core/common/capacity.hpp.
+  ImagePyramid(int width, int height, int levels, int margin_px = capacity::kPyramidMarginPx);
 
-  // Copies image into level 0 and rebuilds the coarser levels. kInvalidInput when the image size
-  // differs from the constructed one. Allocates nothing.
+  // Copies image into level 0 and rebuilds the coarser levels, then every level's margin.
+  // kInvalidInput when the image size differs from the constructed one. Allocates nothing.
   Status build(const ImageView& image);
 
   int levels() const { return levels_; }
@@ -32,7 +34,7 @@ class ImagePyramid {
  private:
   int levels_ = 0;
   std::uint64_t generation_ = 0;
-  std::vector<std::uint8_t> storage_;          // all levels, packed rows
+  std::vector<std::uint8_t> storage_;          // all levels, each with its margin
   std::vector<std::uint16_t> row_tmp_;         // horizontal pass of one output row (x5 rows)
   ImageView views_[capacity::kMaxPyramidLevels];
 };

@@ -424,6 +424,15 @@ constexpr int kMaxSparseCols = (kMaxSparseSide + kChunk - 1) / kChunk * kChunk; 
 constexpr int kMaxSparseSrcRow = 2 * kMaxSparseCols;                                 // bytes a row reads
 static_assert(2 * kMaxSparseSide <= kMaxSrcRows, "the sparse sampler reads two source rows per sample row");
 
+// Columns x0 .. x0 + cols - 1 of image can be read in place: inside it or its margin (a pyramid
+// level's repeated edge pixels, ImageView::margin), where a pixel is what clamping would read.
+inline bool columns_readable(const ImageView& image, int x0, int cols) {
+  return x0 >= -image.margin && x0 + cols <= image.width + image.margin;
+}
+inline bool rows_readable(const ImageView& image, int y0, int rows) {
+  return y0 >= -image.margin && y0 + rows <= image.height + image.margin;
+}
+
 // Source pixels x0 .. x0 + src - 1 of row r (width w), the ones outside the row repeating its
 // end pixels.
 void clamped_row(const std::uint8_t* r, int w, int x0, int src, std::uint8_t* out) {
@@ -436,7 +445,7 @@ void clamped_row(const std::uint8_t* r, int w, int x0, int src, std::uint8_t* ou
 
 // sample_patch_bilinear's contract (n checked by the caller; Px: 128 times the grey levels). The
 // pixels are read in place when the columns under the patch (whole chunks + 1) lie inside the
-// image; a block that crosses the left or right edge is copied with the border pixels repeated.
+// image or its margin; a block that crosses them is copied with the border pixels repeated.
 template <class Out>
 void sample_fixed(const ImageView& image, float x, float y, int n, Out* out) {
   const PatchOrigin origin = patch_origin(x, y);
@@ -445,8 +454,8 @@ void sample_fixed(const ImageView& image, float x, float y, int n, Out* out) {
   const int cols = (n + kChunk - 1) / kChunk * kChunk;
   const int src = cols + 1;
   alignas(16) Out scratch[kMaxSrcRow];
-  const bool inside = x0 >= 0 && x0 + src <= image.width;
-  if (inside && y0 >= 0 && y0 + n < image.height) {
+  const bool inside = columns_readable(image, x0, src);
+  if (inside && rows_readable(image, y0, n + 1)) {
     // The common case, away from every edge: the source rows in place, walked by stride. Rows
     // in whole chunks as below; only the last rows, whose chunks would run past the patch, take
     // their n samples exactly (or, below a chunk, go through the scratch row).
@@ -507,7 +516,7 @@ inline void sample_chunk_step2(const std::uint8_t* r0, const std::uint8_t* r1, c
 
 // sample_sparse_bilinear's contract (Px: 128 times the grey levels): the samples of
 // sample_fixed's (2n - 1)-wide patch at (x, y) on its even rows and columns (the same weights). In
-// place when the source block (whole chunks of 16 pixels) lies inside the image, else from copied
+// place when the source block (whole chunks of 16 pixels) lies inside the image or its margin, else from copied
 // rows with the border pixels repeated.
 template <class Out>
 void sample_fixed_step2(const ImageView& image, float x, float y, int n, Out* out) {
@@ -519,10 +528,10 @@ void sample_fixed_step2(const ImageView& image, float x, float y, int n, Out* ou
   const std::uint8_t* rows[kMaxSrcRows];
   std::uint8_t copy[kMaxSrcRows][kMaxSparseSrcRow];
   const int ymax = image.height - 1;
-  const bool inside = x0 >= 0 && x0 + src <= image.width;
-  if (inside && y0 >= 0 && y0 + 2 * n <= image.height && n % kChunk == 0) {
-    // The common case (window_px 15: one chunk per row), away from the image edges: the source
-    // rows in place, walked by stride.
+  const bool inside = columns_readable(image, x0, src);
+  if (inside && rows_readable(image, y0, 2 * n) && n % kChunk == 0) {
+    // The common case (window_px 15: one chunk per row), inside the image or its margin: the
+    // source rows in place, walked by stride.
     const long stride = image.stride;
     const std::uint8_t* r = image.row(y0) + x0;
     // Row j's source rows from its index (a pointer stepped past the last row could leave the
@@ -752,8 +761,9 @@ bool sparse_template(const TemplateRef& t, int n, const KltOptions& options, Klt
 // The sparse grid's template of p in I sampled directly, without the dense template a cache would
 // keep: the patch's odd rows whole (the samples and their horizontal neighbours) and its even rows
 // at the odd columns (the vertical neighbours), the same samples and the same gradient formula
-// as prepare_template then sparse_template, so the same floats. Only away from the image edges
-// (where sample_fixed reads in place): -1 there. Else 1 when that sparse template is textured, 0
+// as prepare_template then sparse_template, so the same floats. Only where the patch lies inside
+// the image itself: -1 by the edges, margin or not (there the dense template's texture test has
+// always decided, and a window textured on one grid only would be decided otherwise). Else 1 when that sparse template is textured, 0
 // when not. Unlike the dense path it does not test the dense window's texture: a window textured
 // on its sparse grid is used (a confirmation's template is used on that grid only).
 int sparse_template_direct(const ImageView& I, const Eigen::Vector2f& p, const KltOptions& options, KltWorkspace* ws,
@@ -763,7 +773,7 @@ int sparse_template_direct(const ImageView& I, const Eigen::Vector2f& p, const K
   const int x0 = origin.x0, y0 = origin.y0;
   const int cols = (ne + kChunk - 1) / kChunk * kChunk;
   // Bytes read past x0: the odd rows' chunks up to x0 + cols, the even rows' 16-byte chunks from
-  // x0 + 1 up to x0 + 2 ceil8(side) (past the patch for n = 5, 17, 19, 21: still inside the image).
+  // x0 + 1 up to x0 + 2 ceil8(side) (past the patch for n = 5, 17, 19, 21: still readable).
   const int last_byte = std::max(cols, 2 * ((side + kChunk - 1) / kChunk * kChunk));
   if (!(x0 >= 0 && x0 + last_byte < I.width && y0 >= 0 && y0 + ne < I.height)) return -1;
   const Weights& w = origin.w;
@@ -814,9 +824,9 @@ ErrorSums sample_error_sums(const ImageView& J, float x, float y, const WindowGr
   const int n = g.side;
   const PatchOrigin o = patch_origin(x, y);
   const long stride = J.stride;
-  const std::uint8_t* r = J.row(std::max(o.y0, 0)) + std::max(o.x0, 0);
-  if (g.step == 1 && n > kChunk && n <= 2 * kChunk && o.x0 >= 0 && o.x0 + 2 * kChunk + 1 <= J.width && o.y0 >= 0 &&
-      o.y0 + n < J.height) {
+  const std::uint8_t* r = J.row(std::max(o.y0, -J.margin)) + std::max(o.x0, -J.margin);
+  if (g.step == 1 && n > kChunk && n <= 2 * kChunk && columns_readable(J, o.x0, 2 * kChunk + 1) &&
+      rows_readable(J, o.y0, n + 1)) {
     ErrorLanes acc;
     for (int k = 0; k < n * n; k += n, r += stride) {
       SumVec lo, hi;
@@ -829,7 +839,7 @@ ErrorSums sample_error_sums(const ImageView& J, float x, float y, const WindowGr
     }
     return acc.sums();
   }
-  if (g.step == 2 && n == kChunk && o.x0 >= 0 && o.x0 + 2 * kChunk <= J.width && o.y0 >= 0 && o.y0 + 2 * n <= J.height) {
+  if (g.step == 2 && n == kChunk && columns_readable(J, o.x0, 2 * kChunk) && rows_readable(J, o.y0, 2 * n)) {
     ErrorLanes acc;
     for (int j = 0, k = 0; j < n; ++j, k += n) {  // row j's source rows by index, as sample_fixed_step2
       const SumVec s = chunk_step2_sums(r + 2 * j * stride, r + (2 * j + 1) * stride, o.w);

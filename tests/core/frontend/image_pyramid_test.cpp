@@ -87,6 +87,47 @@ TEST_CASE("pyramid levels equal the direct clamped 5x5 binomial formula at every
   }
 }
 
+TEST_CASE("every level's margin holds the pixel at the clamped coordinates, any size, and margin 0 packs the rows") {
+  // Sizes of every parity down to 1 px, so that coarse levels are narrower than the margin.
+  const int sizes[][2] = {{1, 1}, {2, 3}, {5, 4}, {37, 23}, {101, 51}, {848, 17}};
+  for (const auto& sz : sizes) {
+    const int w = sz[0], h = sz[1];
+    ums::test::GreyImage img(w, h);
+    std::uint32_t s = 88172645u + static_cast<std::uint32_t>(w * 1000 + h);
+    for (auto& p : img.pixels) {
+      s ^= s << 13;
+      s ^= s >> 17;
+      s ^= s << 5;
+      p = static_cast<std::uint8_t>(s >> 24);
+    }
+    for (const int margin : {ums::capacity::kPyramidMarginPx, 7}) {
+      ums::ImagePyramid pyr(w, h, 3, margin);
+      ums::ImagePyramid packed(w, h, 3, 0);
+      REQUIRE(pyr.build(img.view()) == ums::Status::kOk);
+      REQUIRE(packed.build(img.view()) == ums::Status::kOk);
+      int mismatches = 0, read = 0;
+      for (int l = 0; l < 3; ++l) {
+        const ums::ImageView& v = pyr.level(l);
+        const ums::ImageView& p = packed.level(l);
+        REQUIRE(v.margin == margin);
+        REQUIRE(p.margin == 0);
+        REQUIRE(p.stride == p.width);
+        for (int y = -margin; y < v.height + margin; ++y) {
+          for (int x = -margin; x < v.width + margin; ++x) {
+            const std::uint8_t clamped = p.row(std::clamp(y, 0, p.height - 1))[std::clamp(x, 0, p.width - 1)];
+            mismatches += v.row(y)[x] != clamped ? 1 : 0;
+            ++read;
+          }
+        }
+      }
+      INFO(w << "x" << h << " margin " << margin << ": " << read << " pixels");
+      CHECK(mismatches == 0);
+    }
+  }
+  CHECK_THROWS_AS(ums::ImagePyramid(64, 48, 4, ums::capacity::kPyramidMarginPx + 1), std::runtime_error);
+  CHECK_THROWS_AS(ums::ImagePyramid(64, 48, 4, -1), std::runtime_error);
+}
+
 TEST_CASE("pyramid rejects a wrong-size image and sizes beyond capacity, and build allocates nothing") {
   ums::ImagePyramid pyr(64, 48, 4);
   ums::test::GreyImage wrong(65, 48);

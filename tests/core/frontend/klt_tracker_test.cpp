@@ -483,11 +483,12 @@ ums::test::GreyImage extended(const ums::test::GreyImage& img, int extra) {
   return out;
 }
 
-TEST_CASE("KLT iterations take the same samples and sums whether the window is read in place or copied at the edge") {
+TEST_CASE("KLT iterations take the same samples and sums whether the window is read in place, from the margin, or copied at the edge") {
   // Every sample any window takes is the same in the image and in its extension. By the right and
-  // bottom edges the image's windows are copied (the sampler would read one pixel past the edge)
-  // and sampled and summed apart, the extension's read in place and summed in the same pass, whose
-  // rows carry 16 - n samples past a 9..15 px window to mask out: the same tracks, bit for bit.
+  // bottom edges the windows of the image's pyramid without a margin are copied (the sampler would
+  // read past the edge) and sampled and summed apart; those of the pyramid with a margin read it
+  // in place, as the extension's are, summed in the same pass, whose rows carry 16 - n samples
+  // past a 9..15 px window to mask out: the same tracks, bit for bit, all three.
   // Windows 9 to 15 px (1 to 7 lanes kept of the second vector), templates sampled each time or
   // kept in a cache block (read up to its spare lanes); the sparse windows (8 samples a row at
   // 15 px) always from a cache: without one, a sparse template by the edge is cut from the whole
@@ -498,9 +499,13 @@ TEST_CASE("KLT iterations take the same samples and sums whether the window is r
   const Eigen::Vector2d pivot(w / 2.0, h / 2.0);
   const ums::test::GreyImage a = tex.render(w, h), b = tex.render(w, h, 0.0, Eigen::Vector2d(0.6, -0.45), pivot);
   const ums::test::GreyImage ea = extended(a, 40), eb = extended(b, 40);
-  ums::ImagePyramid pa(w, h, 1), pb(w, h, 1), pea(w + 40, h + 40, 1), peb(w + 40, h + 40, 1);
+  ums::ImagePyramid pa(w, h, 1, 0), pb(w, h, 1, 0), pea(w + 40, h + 40, 1), peb(w + 40, h + 40, 1);
+  ums::ImagePyramid pma(w, h, 1), pmb(w, h, 1);
+  REQUIRE(pma.level(0).margin == ums::capacity::kPyramidMarginPx);
   REQUIRE(pa.build(a.view()) == ums::Status::kOk);
   REQUIRE(pb.build(b.view()) == ums::Status::kOk);
+  REQUIRE(pma.build(a.view()) == ums::Status::kOk);
+  REQUIRE(pmb.build(b.view()) == ums::Status::kOk);
   REQUIRE(pea.build(ea.view()) == ums::Status::kOk);
   REQUIRE(peb.build(eb.view()) == ums::Status::kOk);
   struct Mode {
@@ -508,7 +513,7 @@ TEST_CASE("KLT iterations take the same samples and sums whether the window is r
     bool cached;
   };
   const Mode modes[3] = {{ums::capacity::kMaxPyramidLevels, false}, {ums::capacity::kMaxPyramidLevels, true}, {0, true}};
-  int tracks = 0, tracked = 0, differ = 0;
+  int tracks = 0, tracked = 0, differ = 0, differ_margin = 0;
   for (const int window : {9, 11, 13, 15}) {
     for (const Mode& mode : modes) {
       ums::KltOptions opt;
@@ -527,14 +532,19 @@ TEST_CASE("KLT iterations take the same samples and sums whether the window is r
       const int n = static_cast<int>(starts.size());
       ums::KltTemplateCache cache_img(n, 1, ums::klt_template_units(opt.window_px));
       ums::KltTemplateCache cache_ext(n, 1, ums::klt_template_units(opt.window_px));
+      ums::KltTemplateCache cache_margin(n, 1, ums::klt_template_units(opt.window_px));
       for (int i = 0; i < n; ++i) {
         const Eigen::Vector2f& p = starts[static_cast<std::size_t>(i)];
-        Eigen::Vector2f q_img = p, q_ext = p;
+        Eigen::Vector2f q_img = p, q_ext = p, q_margin = p;
         const ums::Status s_img = ums::klt_track(pa, pb, 1, opt, p, &q_img, mode.cached ? &cache_img : nullptr, i);
         const ums::Status s_ext = ums::klt_track(pea, peb, 1, opt, p, &q_ext, mode.cached ? &cache_ext : nullptr, i);
+        const ums::Status s_margin =
+            ums::klt_track(pma, pmb, 1, opt, p, &q_margin, mode.cached ? &cache_margin : nullptr, i);
         ++tracks;
         tracked += s_img == ums::Status::kOk ? 1 : 0;
         differ += s_img != s_ext || (s_img == ums::Status::kOk && (q_img.x() != q_ext.x() || q_img.y() != q_ext.y())) ? 1 : 0;
+        differ_margin +=
+            s_margin != s_ext || (s_ext == ums::Status::kOk && (q_margin.x() != q_ext.x() || q_margin.y() != q_ext.y())) ? 1 : 0;
       }
     }
   }
@@ -542,4 +552,5 @@ TEST_CASE("KLT iterations take the same samples and sums whether the window is r
   CHECK(tracks == 4 * 3 * 14 * 12);
   CHECK(tracked > tracks / 2);
   CHECK(differ == 0);
+  CHECK(differ_margin == 0);
 }
