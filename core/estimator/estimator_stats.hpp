@@ -32,6 +32,15 @@ struct EstimatorStats {
   std::uint64_t align_unobservable = 0;   // refused: gravity's direction not known well enough
   double align_tilt_sigma_deg = -1.0;     // deg, of the last attempt that got that far
   std::uint64_t solves = 0;
+  // Summed over the solves (solver::SolverSummary): LM step attempts, accepted steps, whole
+  // linearizations (Jacobians and H), of them gradient-only passes, steps solved with the factor
+  // of the step before, and sweeps over the residuals of every kind.
+  std::uint64_t solver_iterations = 0;
+  std::uint64_t solver_successful_steps = 0;
+  std::uint64_t solver_linearizations = 0;
+  std::uint64_t solver_gradient_passes = 0;
+  std::uint64_t solver_factor_reuses = 0;
+  std::uint64_t solver_residual_passes = 0;
   std::uint64_t stage_kept_2d_left = 0;   // 3D vs 3D+2D-left agreed
   std::uint64_t stage_added_2d_right = 0; // disagreed or too few 3D: all classes
   std::uint64_t stage_3d_sufficient = 0;  // no 2D-left landmark to try: one stage

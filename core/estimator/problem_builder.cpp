@@ -73,7 +73,7 @@ bool ProblemBuilder::solve(const SolveSpec& spec, const SolveBudget& budget, boo
   opt.reuse_factorization = options_.reuse_factorization;
   solver::SolverSummary summary;
   const solver::SolverStatus st = problem_->solve(opt, &summary);
-  ++stats_->solves;
+  count_solve(summary);
   window_->extrinsics().sync();  // the solver may have moved them (estimate_extrinsic)
   if (converged != nullptr) {
     *converged = st == solver::SolverStatus::kConverged ||
@@ -81,6 +81,17 @@ bool ProblemBuilder::solve(const SolveSpec& spec, const SolveBudget& budget, boo
                   summary.termination == solver::Termination::kMaxSuccessfulSteps);
   }
   return solver::usable(st);
+}
+
+void ProblemBuilder::count_solve(const solver::SolverSummary& summary) {
+  auto add = [](std::uint64_t* total, int n) { *total += static_cast<std::uint64_t>(std::max(n, 0)); };
+  ++stats_->solves;
+  add(&stats_->solver_iterations, summary.iterations);
+  add(&stats_->solver_successful_steps, summary.successful_steps);
+  add(&stats_->solver_linearizations, summary.linearizations);
+  add(&stats_->solver_gradient_passes, summary.gradient_passes);
+  add(&stats_->solver_factor_reuses, summary.factor_reuses);
+  add(&stats_->solver_residual_passes, summary.residual_passes);
 }
 
 int ProblemBuilder::build(const SolveSpec& spec) {

@@ -22,6 +22,7 @@
 namespace ums {
 namespace solver {
 class Problem;
+struct SolverSummary;
 }
 
 class LandmarkMap;
@@ -122,6 +123,7 @@ class ProblemBuilder {
 
  private:
   int build(const SolveSpec& spec);
+  void count_solve(const solver::SolverSummary& summary);  // into stats_
   void add_state_blocks(const SolveSpec& spec);
   void add_landmarks(std::uint8_t groups);
   // False when an edge did not fit in the problem.

@@ -18,6 +18,8 @@ constexpr double kFocalPx = 460.0;
 struct Outcome {
   int marked = 0;
   std::vector<std::uint32_t> outlier_ids;
+  ums::EstimatorStats after_solve;  // the counters right after the solve
+  ums::EstimatorStats after_resolve;  // ... and after a second solve from its result
 };
 
 // Four stereo frames 0.2 m apart see 40 points 3-8 m ahead; in the last frame point 6 (feature
@@ -57,9 +59,12 @@ Outcome solve_and_check(bool moved) {
     x = std::nextafter(x, 1.0);
   }
   Outcome out;
+  out.after_solve = stats;
   out.marked = builder.mark_outliers();
   for (int k = 0; k < map.size(); ++k)
     if (map[k].outlier) out.outlier_ids.push_back(map[k].id);
+  REQUIRE(builder.solve(spec, {5}));
+  out.after_resolve = stats;
   return out;
 }
 
@@ -74,4 +79,26 @@ TEST_CASE("The outlier check finds the planted observation, from the solve's res
   CHECK(kept.outlier_ids[0] == 7u);
   CHECK(fresh.marked == kept.marked);
   CHECK(fresh.outlier_ids == kept.outlier_ids);
+}
+
+TEST_CASE("Each solve's iterations, linearizations and passes add up in the estimator's counters",
+          "[estimator][problem_builder]") {
+  const Outcome o = solve_and_check(false);
+  const ums::EstimatorStats& a = o.after_solve;
+  const ums::EstimatorStats& b = o.after_resolve;
+  CHECK(a.solves == 1);
+  // Five iterations at most; every iteration linearizes or takes a gradient pass, and a pass over
+  // the residuals is made for each of those and for each candidate's cost.
+  CHECK(a.solver_iterations >= 1);
+  CHECK(a.solver_iterations <= 5);
+  CHECK(a.solver_successful_steps <= a.solver_iterations);
+  CHECK(a.solver_linearizations >= 1);
+  CHECK(a.solver_gradient_passes <= a.solver_linearizations);
+  CHECK(a.solver_factor_reuses <= a.solver_iterations);
+  CHECK(a.solver_residual_passes >= a.solver_linearizations);
+  // The second solve starts at the first one's optimum (with the outlier dropped): it adds.
+  CHECK(b.solves == 2);
+  CHECK(b.solver_iterations > a.solver_iterations);
+  CHECK(b.solver_linearizations > a.solver_linearizations);
+  CHECK(b.solver_residual_passes > a.solver_residual_passes);
 }
