@@ -325,6 +325,7 @@ void ReplayPipeline::write_estimator_stats(JsonWriter& w) const {
       .value("poses_written", poses_.poses_written())
       .value("frames_without_pose", e.frames_without_pose)
       .value("solves", e.solves)
+      .value("problem_builds", e.problem_builds)
       .value("solver_iterations", e.solver_iterations)
       .value("solver_successful_steps", e.solver_successful_steps)
       .value("solver_linearizations", e.solver_linearizations)

@@ -81,11 +81,12 @@ ModeEvent Estimator::frame_vo(WindowFrame& f) {
 
 void Estimator::second_round(const SolveSpec& spec, bool converged) {
   // Round 2 (paper Sec. III-C) on the cleaned set when something was removed or round 1 was cut
-  // short, bounded by time; nothing to refine when round 1 converged without outliers.
+  // short, bounded by time; nothing to refine when round 1 converged without outliers. Cut short
+  // with nothing removed, it continues on round 1's problem as built (solve_again).
   const int outliers = builder_->mark_outliers();
   if (outliers > 0) landmarks_->compact();
   if (outliers > 0 || !converged) {
-    builder_->solve(spec, {std::max(1, options_.max_iterations_round2), 0, options_.round2_time_s});
+    builder_->solve_again(spec, {std::max(1, options_.max_iterations_round2), 0, options_.round2_time_s});
     ++stats_.second_rounds;
   }
 }

@@ -32,6 +32,7 @@ struct EstimatorStats {
   std::uint64_t align_unobservable = 0;   // refused: gravity's direction not known well enough
   double align_tilt_sigma_deg = -1.0;     // deg, of the last attempt that got that far
   std::uint64_t solves = 0;
+  std::uint64_t problem_builds = 0;  // solves on a problem built anew (ProblemBuilder::solve_again may not)
   // Summed over the solves (solver::SolverSummary): LM step attempts, accepted steps, whole
   // linearizations (Jacobians and H), of them gradient-only passes, steps solved with the factor
   // of the step before, and sweeps over the residuals of every kind.

@@ -51,6 +51,7 @@ void ProblemBuilder::set_init_prior(const SpeedBiasPrior::Vector9& target, const
                                     FrameId id) {
   init_prior_.set(target, sigma);
   init_prior_frame_ = id;
+  built_current_ = false;
 }
 
 
@@ -58,11 +59,23 @@ void ProblemBuilder::clear_relocation(const SolveSpec& spec) {
   const bool in_problem = n_relocation_ > 0;
   relocation_ = nullptr;
   n_relocation_ = n_loop_points_ = 0;
-  if (in_problem) build(spec);
+  if (in_problem)
+    build(spec);
+  else
+    built_current_ = false;
 }
 
 bool ProblemBuilder::solve(const SolveSpec& spec, const SolveBudget& budget, bool* converged) {
   build(spec);
+  return run_solver(budget, converged);
+}
+
+bool ProblemBuilder::solve_again(const SolveSpec& spec, const SolveBudget& budget, bool* converged) {
+  if (!(built_current_ && spec == built_spec_)) build(spec);
+  return run_solver(budget, converged);
+}
+
+bool ProblemBuilder::run_solver(const SolveBudget& budget, bool* converged) {
   solver::SolverOptions opt;
   opt.max_iterations = budget.iterations;
   opt.max_successful_steps = budget.steps;
@@ -95,6 +108,9 @@ void ProblemBuilder::count_solve(const solver::SolverSummary& summary) {
 }
 
 int ProblemBuilder::build(const SolveSpec& spec) {
+  ++stats_->problem_builds;
+  built_spec_ = spec;
+  built_current_ = true;
   problem_->clear();
   n_visual_ = 0;
   n_selected_ = 0;
@@ -299,6 +315,7 @@ void ProblemBuilder::add_marginal_prior() {
 }
 
 void ProblemBuilder::set_relocation(const RelocationRequest* request, const Eigen::Isometry3d& T_odom_loop) {
+  built_current_ = false;
   relocation_ = request;
   n_relocation_ = 0;
   pose_from_iso(T_odom_loop, relocation_pose_);
@@ -429,6 +446,7 @@ int ProblemBuilder::mark_outliers() {
     Landmark& l = landmarks_->at_pool(chosen_[i]);
     if (!(l.inv_depth > 1.0 / options_.max_depth_m && l.inv_depth < 1.0 / options_.min_depth_m)) {
       l.has_depth = false;  // re-triangulated later
+      built_current_ = false;
       continue;
     }
     int verdict = solved && edge_res_[i].whole ? solved_edges_outlier(edge_res_[i], edge_weight(l)) : -1;
@@ -439,6 +457,7 @@ int ProblemBuilder::mark_outliers() {
     }
   }
   stats_->outlier_landmarks += static_cast<std::uint64_t>(marked);
+  if (marked > 0) built_current_ = false;  // the selection changes (landmarks_->compact())
   return marked;
 }
 

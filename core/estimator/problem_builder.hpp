@@ -69,6 +69,10 @@ struct SolveSpec {
   bool imu = true;                   // IMU factors, bias prior, still constraints; else speed-bias fixed
   bool prior = true;                 // the marginalization prior
   bool fix_first_pose = false;       // vision only: the gauge
+
+  bool operator==(const SolveSpec& o) const {
+    return groups == o.groups && imu == o.imu && prior == o.prior && fix_first_pose == o.fix_first_pose;
+  }
 };
 
 class ProblemBuilder {
@@ -82,17 +86,34 @@ class ProblemBuilder {
   // Builds and solves; false when the solver's result is not usable. *converged: a tolerance
   // ended the solve, or the budget's accepted steps (by design, not cut short).
   bool solve(const SolveSpec& spec, const SolveBudget& budget, bool* converged = nullptr);
+  // The second round (Estimator::second_round): as solve(), but when the outlier check since the
+  // last solve marked nothing and dropped no depth, the builder has changed nothing since, and
+  // spec is the last solve's, the last solve's problem is solved again from the values it
+  // returned instead of being built anew: the build would give the same problem (its blocks,
+  // residuals and their order depend on the landmarks' and frames' flags and measurements, not
+  // on the values a solve moves). The caller must not have changed the window or the landmarks
+  // in between.
+  bool solve_again(const SolveSpec& spec, const SolveBudget& budget, bool* converged = nullptr);
   // Marks the landmarks of the last solve with an observation beyond outlier_rad (or a depth out
   // of range: depth dropped, re-triangulated later); returns how many were marked.
   int mark_outliers();
 
   // The bias prior of the initialization, on the speed-bias of frame `id` while it is in the window.
   void set_init_prior(const SpeedBiasPrior::Vector9& target, const SpeedBiasPrior::Vector9& sigma, FrameId id);
-  void clear_init_prior() { init_prior_frame_ = kNoFrame; }
+  void clear_init_prior() {
+    init_prior_frame_ = kNoFrame;
+    built_current_ = false;
+  }
   // With estimate_extrinsic, the extrinsics float (under their priors) in the VIO solves from
   // this call on; before, they are held at the calibration.
-  void release_extrinsics() { extrinsics_released_ = true; }
-  void hold_extrinsics() { extrinsics_released_ = false; }
+  void release_extrinsics() {
+    extrinsics_released_ = true;
+    built_current_ = false;
+  }
+  void hold_extrinsics() {
+    extrinsics_released_ = false;
+    built_current_ = false;
+  }
   bool extrinsics_released() const { return extrinsics_released_; }
 
   // Tightly coupled relocation (relocation.hpp): until clear_relocation(), every VIO solve adds
@@ -123,6 +144,7 @@ class ProblemBuilder {
 
  private:
   int build(const SolveSpec& spec);
+  bool run_solver(const SolveBudget& budget, bool* converged);  // solves the problem built
   void count_solve(const solver::SolverSummary& summary);  // into stats_
   void add_state_blocks(const SolveSpec& spec);
   void add_landmarks(std::uint8_t groups);
@@ -177,6 +199,10 @@ class ProblemBuilder {
   SpeedBiasPrior zero_velocity_;
   StillResidual still_;
   bool extrinsics_released_ = false;
+  // The problem built last (with built_spec_) is what a build would give now, as far as the
+  // builder knows: nothing it holds changed since and the outlier check changed no landmark.
+  bool built_current_ = false;
+  SolveSpec built_spec_;
   PosePrior extrinsic_prior_[2];
   RelativePosePrior baseline_prior_;
   ScalarPrior td_prior_;
