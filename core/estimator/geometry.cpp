@@ -125,7 +125,8 @@ int count_inliers(const PnpMatch* matches, int n, const Eigen::Isometry3d* T_b_c
 }
 
 // RANSAC: the prior itself is the first hypothesis (a good IMU prediction needs no sampling),
-// then minimal samples fitted by Gauss-Newton; the pose with the most inliers, or -1.
+// then minimal samples fitted by Gauss-Newton; the pose with the most inliers (the first found
+// of them), or -1.
 int ransac_pnp(const PnpMatch* matches, int n, const Eigen::Isometry3d* T_b_c, const PnpOptions& options,
                const Eigen::Isometry3d& prior, Eigen::Isometry3d* best) {
   int best_inliers = -1;
@@ -150,6 +151,8 @@ int ransac_pnp(const PnpMatch* matches, int n, const Eigen::Isometry3d* T_b_c, c
       best_inliers = inliers;
       *best = T;
     }
+    // Every match an inlier: no later hypothesis can have more (a good prior usually does).
+    if (best_inliers == n) break;
   }
   return best_inliers;
 }
