@@ -22,13 +22,9 @@ struct Outcome {
   ums::EstimatorStats after_resolve;  // ... and after a second solve from its result
 };
 
-// Four stereo frames 0.2 m apart see 40 points 3-8 m ahead; in the last frame point 6 (feature
-// id 7) is seen 12 px off (a tracking error). Vision-only solve with the first pose fixed, then
-// the outlier check; with `moved`, one pose is nudged by one float step after the solve, so the
-// check cannot take the solver's kept residuals and evaluates the edges itself.
-Outcome solve_and_check(bool moved) {
-  ums::test::StereoScene sc;
-  ums::LandmarkMap map{ums::LandmarkMapOptions()};
+// Four stereo frames 0.2 m apart see 40 points 3-8 m ahead; with `planted`, point 6 (feature
+// id 7) is seen 12 px off in the last frame (a tracking error). The landmarks triangulated.
+void observe_points(bool planted, ums::test::StereoScene* sc, ums::LandmarkMap* map) {
   std::vector<Eigen::Vector3d> pts;
   for (int i = 0; i < 40; ++i) {
     const double u = -0.6 + 1.2 * ((i * 7) % 40) / 39.0, v = -0.4 + 0.8 * ((i * 13) % 40) / 39.0;
@@ -37,10 +33,19 @@ Outcome solve_and_check(bool moved) {
   }
   for (int k = 0; k < 4; ++k) {
     std::vector<Eigen::Vector3d> seen = pts;
-    if (k == 3) seen[6] += Eigen::Vector3d(12.0 / kFocalPx * pts[6].z(), 0.0, 0.0);
-    REQUIRE(sc.add_frame(0.2 * k, seen.data(), static_cast<int>(seen.size()), true, &map) >= 0);
+    if (planted && k == 3) seen[6] += Eigen::Vector3d(12.0 / kFocalPx * pts[6].z(), 0.0, 0.0);
+    REQUIRE(sc->add_frame(0.2 * k, seen.data(), static_cast<int>(seen.size()), true, map) >= 0);
   }
-  map.triangulate_all(sc.window, -1);
+  map->triangulate_all(sc->window, -1);
+}
+
+// The scene of observe_points with the tracking error. Vision-only solve with the first pose fixed, then
+// the outlier check; with `moved`, one pose is nudged by one float step after the solve, so the
+// check cannot take the solver's kept residuals and evaluates the edges itself.
+Outcome solve_and_check(bool moved) {
+  ums::test::StereoScene sc;
+  ums::LandmarkMap map{ums::LandmarkMapOptions()};
+  observe_points(true, &sc, &map);
   ums::ProblemBuilderOptions opt;
   opt.weight_3d = opt.weight_2d = kFocalPx / 1.5;
   opt.huber_rad = 1.0;
@@ -79,19 +84,8 @@ struct RoundTwo {
 RoundTwo second_round(bool planted, bool again) {
   ums::test::StereoScene sc;
   ums::LandmarkMap map{ums::LandmarkMapOptions()};
-  std::vector<Eigen::Vector3d> pts;
-  for (int i = 0; i < 40; ++i) {
-    const double u = -0.6 + 1.2 * ((i * 7) % 40) / 39.0, v = -0.4 + 0.8 * ((i * 13) % 40) / 39.0;
-    const double z = 3.0 + 5.0 * ((i * 17) % 40) / 39.0;
-    pts.emplace_back(u * z, v * z, z);
-  }
-  for (int k = 0; k < 4; ++k) {
-    std::vector<Eigen::Vector3d> seen = pts;
-    if (planted && k == 3) seen[6] += Eigen::Vector3d(12.0 / kFocalPx * pts[6].z(), 0.0, 0.0);
-    // The frames start 2 cm off their true places: one iteration does not reach the optimum.
-    REQUIRE(sc.add_frame(0.2 * k, seen.data(), static_cast<int>(seen.size()), true, &map) >= 0);
-  }
-  map.triangulate_all(sc.window, -1);
+  observe_points(planted, &sc, &map);
+  // The frames start 2 cm off their true places: one iteration does not reach the optimum.
   for (int k = 1; k < 4; ++k) ums::state::p(sc.window.slot(sc.window.slot_at(k)).pose).y() += 0.02;
   ums::ProblemBuilderOptions opt;
   opt.weight_3d = opt.weight_2d = kFocalPx / 1.5;

@@ -56,14 +56,7 @@ TEST_CASE("pyramid levels equal the direct clamped 5x5 binomial formula at every
   const int sizes[][2] = {{1, 1}, {2, 3}, {3, 2}, {4, 5}, {5, 4}, {6, 7}, {9, 6}, {37, 23}, {64, 48}, {101, 51}, {752, 48}, {767, 31}, {848, 17}};
   for (const auto& sz : sizes) {
     const int w = sz[0], h = sz[1];
-    ums::test::GreyImage img(w, h);
-    std::uint32_t s = 2463534242u + static_cast<std::uint32_t>(w * 1000 + h);
-    for (auto& p : img.pixels) {
-      s ^= s << 13;
-      s ^= s >> 17;
-      s ^= s << 5;
-      p = static_cast<std::uint8_t>(s >> 24);
-    }
+    const ums::test::GreyImage img = ums::test::random_image(w, h, 2463534242u + static_cast<std::uint32_t>(w * 1000 + h));
     ums::ImagePyramid pyr(w, h, 3);
     REQUIRE(pyr.build(img.view()) == ums::Status::kOk);
     int mismatches = 0;
@@ -92,14 +85,7 @@ TEST_CASE("every level's margin holds the pixel at the clamped coordinates, any 
   const int sizes[][2] = {{1, 1}, {2, 3}, {5, 4}, {37, 23}, {101, 51}, {848, 17}};
   for (const auto& sz : sizes) {
     const int w = sz[0], h = sz[1];
-    ums::test::GreyImage img(w, h);
-    std::uint32_t s = 88172645u + static_cast<std::uint32_t>(w * 1000 + h);
-    for (auto& p : img.pixels) {
-      s ^= s << 13;
-      s ^= s >> 17;
-      s ^= s << 5;
-      p = static_cast<std::uint8_t>(s >> 24);
-    }
+    const ums::test::GreyImage img = ums::test::random_image(w, h, 88172645u + static_cast<std::uint32_t>(w * 1000 + h));
     for (const int margin : {ums::capacity::kPyramidMarginPx, 7}) {
       ums::ImagePyramid pyr(w, h, 3, margin);
       ums::ImagePyramid packed(w, h, 3, 0);

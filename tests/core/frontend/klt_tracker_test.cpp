@@ -245,19 +245,6 @@ TEST_CASE("KltOptions::validate rejects an even window") {
   CHECK_THROWS_AS(o.validate(), std::invalid_argument);
 }
 
-// Uniform random grey levels (xorshift32 from seed): every pixel value, no structure.
-ums::test::GreyImage random_image(int w, int h, std::uint32_t seed) {
-  ums::test::GreyImage img(w, h);
-  std::uint32_t s = seed;
-  for (auto& p : img.pixels) {
-    s ^= s << 13;
-    s ^= s >> 17;
-    s ^= s << 5;
-    p = static_cast<std::uint8_t>(s >> 24);
-  }
-  return img;
-}
-
 // The sampler's arithmetic written out sample by sample: the weights in 1/128 from the rounded
 // fractions, the integer sum of products, the float quotient.
 float fixed_point_reference(const ums::ImageView& v, float x, float y, int i, int j) {
@@ -286,7 +273,7 @@ float exact_bilinear(const ums::ImageView& v, float x, float y) {
 
 TEST_CASE("bilinear patch sampling equals the fixed-point formula bit for bit, inside and at the border") {
   const int w = 80, h = 60;
-  const ums::test::GreyImage img = random_image(w, h, 88172645u);
+  const ums::test::GreyImage img = ums::test::random_image(w, h, 88172645u);
   const ums::ImageView v = img.view();
   float out[33 * 33];
   int mismatches = 0, samples = 0;
@@ -328,7 +315,7 @@ TEST_CASE("bilinear patch sampling equals the fixed-point formula bit for bit, i
 
 TEST_CASE("sparse window samples equal the whole patch's on its even rows and columns, bit for bit") {
   const int w = 80, h = 60;
-  const ums::test::GreyImage img = random_image(w, h, 2463534242u);
+  const ums::test::GreyImage img = ums::test::random_image(w, h, 2463534242u);
   const ums::ImageView v = img.view();
   float out[16 * 16];
   int mismatches = 0, samples = 0;

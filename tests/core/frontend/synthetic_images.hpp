@@ -25,6 +25,19 @@ struct GreyImage {
   std::uint8_t& at(int x, int y) { return pixels[static_cast<std::size_t>(y) * width + x]; }
 };
 
+// Uniform random grey levels (xorshift32 from seed): every pixel value, no structure.
+inline GreyImage random_image(int w, int h, std::uint32_t seed) {
+  GreyImage img(w, h);
+  std::uint32_t s = seed;
+  for (auto& p : img.pixels) {
+    s ^= s << 13;
+    s ^= s >> 17;
+    s ^= s << 5;
+    p = static_cast<std::uint8_t>(s >> 24);
+  }
+  return img;
+}
+
 struct Blob {
   Eigen::Vector2d c;
   double sigma;
