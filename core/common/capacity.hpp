@@ -12,7 +12,8 @@ inline constexpr int kMaxImageWidth = 1280;   // px, D455 IR max mode
 inline constexpr int kMaxImageHeight = 800;   // px
 inline constexpr int kMaxPyramidLevels = 4;   // the paper's 4-level 2D tracker
 // px, repeated edge pixels around every pyramid level: the KLT reads a window by an edge in place
-// (a 31 px window's template, 33 px, reads 49 columns from its origin, up to 32 left of the image)
+// (a tracked in-image point's reads reach at most 30 px left, 32 right and 31 below the image,
+// windows up to 31 px; a 31 px window's 33 px template reads 41 columns from its origin)
 inline constexpr int kPyramidMarginPx = 48;
 
 // Front end
