@@ -275,15 +275,17 @@ class Problem {
   // The candidate's cost, from the gradient pass that accepting it would run next when there is
   // one (gradient_pass_follows): one sweep over the residuals instead of two. The iterate's
   // gradient terms are kept aside meanwhile and put back unless the candidate is accepted.
-  bool evaluate_candidate(const LmState& s, double* cost);
+  bool evaluate_candidate(const LmState& s, double model_change, double step_norm, double* cost);
   bool step_budget_spent(const LmState& s) const;    // accepting uses the last permitted step
   bool last_permitted_step(const LmState& s) const;  // accepting ends the solve unlinearized
   bool gradient_only_at_acceptance(const LmState& s) const;  // reuse_gauss_newton_matrix's pass
   bool gradient_pass_follows(const LmState& s) const;
   bool candidate_takes_gradient_pass(const LmState& s) const;  // ... and the options allow it
+  // whole_pass_on_candidate: accepting would linearize whole, and the candidate looks acceptable.
+  bool candidate_takes_whole_pass(const LmState& s, double model_change, double step_norm) const;
   void keep_gradient_terms();
   void restore_gradient_terms();
-  void drop_candidate_linearization();  // the candidate is not accepted: the iterate's terms again
+  bool drop_candidate_linearization(LmState& s);  // the candidate is not accepted: the iterate's terms again
   // Solves the damped system (lm_scale = 1/radius; 0 for Gauss-Newton); false on failure. Keeps
   // the factor of the reduced system (factor_valid_, factor_lm_scale_).
   bool compute_step(double lm_scale, double* model_cost_change);
@@ -402,6 +404,7 @@ class Problem {
   double kept_lin_x_[capacity::kMaxParameterBlocks][capacity::kMaxBlockAmbientSize] = {};
   bool kept_sep_valid_ = false;
   bool candidate_linearized_ = false;
+  bool iterate_system_spoiled_ = false;  // a whole pass at the candidate replaced the iterate's system
   int residual_passes_ = 0;  // calls of linearize() in this solve (SolverSummary::residual_passes)
 
   // Step computation.

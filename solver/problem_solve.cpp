@@ -55,6 +55,7 @@ struct Problem::LmState {
   double x_norm = -1.0;  // as Ceres: unknown until the first accepted step
   bool step_successful = true;
   bool stale_matrix = false;  // H is not the iterate's own (a gradient pass formed b only)
+  bool refused_last = false;  // the last candidate was refused (whole_pass_on_candidate waits)
   int invalid_steps = 0;
   int iteration = 0;
 };
@@ -132,10 +133,11 @@ bool Problem::iterate(LmState& s) {
   const double step_norm = apply_candidate();
   double cand_cost = 0.0;
   kept_write_ = 1 - kept_cur_;  // the candidate's residuals: current if it is accepted
-  if (!evaluate_candidate(s, &cand_cost)) cand_cost = std::numeric_limits<double>::max();
+  if (!evaluate_candidate(s, mcc, step_norm, &cand_cost)) cand_cost = std::numeric_limits<double>::max();
   kept_write_ = -1;
   if (candidate_converged(s, step_norm, cand_cost)) {
-    drop_candidate_linearization();
+    // Ended: the iterate's system still goes back, for the marginalization and the gradient readers.
+    if (!drop_candidate_linearization(s)) s.end(SolverStatus::kNumericalFailure, Termination::kFailure, s.x_cost + s.fixed);
     return false;
   }
   const double relative_decrease = (s.x_cost - cand_cost) / mcc;
@@ -143,7 +145,9 @@ bool Problem::iterate(LmState& s) {
                            : cand_cost < std::numeric_limits<double>::max();
   if (accept) return accept_step(s, cand_cost, relative_decrease);
   restore_values();
-  drop_candidate_linearization();
+  if (!drop_candidate_linearization(s))
+    return s.end(SolverStatus::kNumericalFailure, Termination::kFailure, s.x_cost + s.fixed);
+  s.refused_last = true;
   if (s.stale_matrix) return refresh_matrix(s);
   s.shrink();
   return true;
@@ -270,6 +274,8 @@ bool Problem::accept_step(LmState& s, double cand_cost, double relative_decrease
   const bool linearized = candidate_linearized_ ||
                           (gradient_only ? linearize_gradient(&s.x_cost) : linearize(true, &s.x_cost));
   candidate_linearized_ = false;
+  iterate_system_spoiled_ = false;
+  s.refused_last = false;
   if (!linearized) {
     restore_values();
     kept_cur_ = 1 - kept_cur_;
@@ -312,25 +318,56 @@ bool Problem::candidate_takes_gradient_pass(const LmState& s) const {
   return s.options.gradient_pass_on_candidate && gradient_pass_follows(s);
 }
 
-// The candidate's residuals with their Jacobians when accepting it would run the gradient pass
-// anyway: the cost pass is that pass, and nothing changes but the work (the same residuals and
-// the same sums in the same order). A pass that fails leaves the decision to the plain cost pass,
-// as before, whose acceptance then runs the gradient pass itself.
-bool Problem::evaluate_candidate(const LmState& s, double* cost) {
+// Accepting would linearize the candidate whole, and it is likely to be accepted: the last
+// candidate was not refused (after a refusal the region is still being found), its model change
+// is well above the function tolerance's share of the cost (near the minimum a candidate is most
+// often discarded under that tolerance), and the parameter tolerance does not discard it. Not on
+// a stale matrix: that iterate's system is not what a whole linearization gives back.
+bool Problem::candidate_takes_whole_pass(const LmState& s, double model_change, double step_norm) const {
+  // Under this share the candidate would be discarded only if its cost changed by less than a
+  // third of what its model predicts: near the minimum, where the model is good, that is rare,
+  // and a wasted whole pass costs several cost passes.
+  constexpr double kModelShare = 3.0;
+  const SolverOptions& o = s.options;
+  return o.whole_pass_on_candidate && !s.stale_matrix && !s.refused_last && !gradient_only_at_acceptance(s) &&
+         !last_permitted_step(s) && model_change > kModelShare * o.function_tolerance * s.x_cost &&
+         step_norm > o.parameter_tolerance * (s.x_norm + o.parameter_tolerance);
+}
+
+// The candidate's residuals with their Jacobians when accepting it would run that pass anyway
+// (the gradient pass, or a whole linearization that looks worth the gamble): the cost pass is
+// that pass, and nothing changes but the work (the same residuals and the same sums in the same
+// order). A pass that fails leaves the decision to the plain cost pass, as before, whose
+// acceptance then runs the pass itself.
+bool Problem::evaluate_candidate(const LmState& s, double model_change, double step_norm, double* cost) {
   candidate_linearized_ = false;
+  iterate_system_spoiled_ = false;
   if (candidate_takes_gradient_pass(s)) {
     keep_gradient_terms();
     candidate_linearized_ = linearize_gradient(cost);
     if (candidate_linearized_) return true;
     restore_gradient_terms();
+  } else if (candidate_takes_whole_pass(s, model_change, step_norm)) {
+    iterate_system_spoiled_ = true;  // from here H, b, the landmarks' terms are the candidate's
+    candidate_linearized_ = linearize(true, cost);
+    if (candidate_linearized_) return true;
   }
   return linearize(false, cost);
 }
 
-void Problem::drop_candidate_linearization() {
-  if (!candidate_linearized_) return;
+// The candidate is not taken (its values already restored): the iterate's terms again. After a
+// whole pass, by linearizing the iterate again: the same values, residuals and order give the
+// same bits. false: that linearization failed (it did not, the first time).
+bool Problem::drop_candidate_linearization(LmState& s) {
+  const bool spoiled = iterate_system_spoiled_, gradient = candidate_linearized_ && !spoiled;
   candidate_linearized_ = false;
-  restore_gradient_terms();
+  iterate_system_spoiled_ = false;
+  if (gradient) restore_gradient_terms();
+  if (!spoiled) return true;
+  double cost = 0.0;
+  if (!linearize(true, &cost)) return false;
+  ++s.summary.linearizations;
+  return true;
 }
 
 // What a gradient pass writes: b, g_l, bsep and, when hinted, the separated linearization point.

@@ -47,6 +47,13 @@ struct SolverOptions {
   // when the candidate is refused. The same bits as off, for residuals whose values do not depend
   // on which Jacobians are wanted (docs/solver.md).
   bool gradient_pass_on_candidate = true;
+  // Not in Ceres; false turns it off. When accepting the candidate would linearize it whole next,
+  // and the step looks like one to accept (the last candidate was not refused, and its model
+  // change is well above what the function tolerance discards), the candidate's cost comes from
+  // that whole linearization, run before the decision, instead of from a cost pass before it. A
+  // candidate that is then not taken costs a linearization at the iterate again, which gives its
+  // system back bit for bit (docs/solver.md, "The candidate's whole pass").
+  bool whole_pass_on_candidate = true;
   // Not in Ceres; false turns it off. The step right after reuse_gauss_newton_matrix's gradient
   // pass is solved with the factor of the step before: the matrix is the same, and only the
   // damping would differ. When the trust region grew at the acceptance (a well predicted step)

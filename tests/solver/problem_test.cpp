@@ -550,8 +550,9 @@ TEST_CASE("The evaluation callback runs before every pass of solve, cost and mar
   SolverSummary sum;
   REQUIRE(usable(problem->solve(opt, &sum)));
   CHECK(std::abs(x - std::log(5.0)) < 1e-6);
-  // One pass per linearization plus one per trial point (iterations).
-  CHECK(seen.calls >= sum.linearizations + sum.iterations);
+  // One per sweep over the residuals: linearizations, candidates' costs.
+  CHECK(seen.calls >= sum.residual_passes);
+  CHECK(sum.residual_passes >= sum.linearizations);
   x = 1.0;
   const int before = seen.calls;
   double cost = 0.0;
@@ -1026,6 +1027,7 @@ TEST_CASE("max_successful_steps ends the solve after that many accepted steps, r
     opt.max_iterations = max_iterations;
     opt.max_successful_steps = max_steps;
     opt.initial_trust_region_radius = 1e16;
+    opt.whole_pass_on_candidate = false;  // linearizations counted as Ceres makes them
     const SolverStatus st = problem->solve(opt, sum);
     REQUIRE(usable(st));
     if (sum->termination == Termination::kMaxSuccessfulSteps) CHECK(st == SolverStatus::kMaxIterations);
@@ -1547,6 +1549,71 @@ TEST_CASE("The candidate's gradient pass fails where its cost pass would not: th
 
 namespace {
 
+// r = 10 (x^3 - 1) from x0 with plain Levenberg-Marquardt (no gradient pass), the candidate's
+// whole pass on or off; gradient: the solver's gradient at the end.
+CubeRun solve_cube_whole_pass(double x0, double radius, bool whole, double function_tolerance, double* gradient) {
+  auto problem = std::make_unique<Problem>();
+  CountedCube f;
+  CubeRun run;
+  run.x = x0;
+  BlockId id = 0;
+  REQUIRE(problem->add_euclidean_block(&run.x, 1, &id) == SolverStatus::kOk);
+  REQUIRE(problem->add_residual(&f, RobustLoss::trivial(), {id}) == SolverStatus::kOk);
+  SolverOptions opt;
+  opt.whole_pass_on_candidate = whole;
+  opt.initial_trust_region_radius = radius;
+  opt.function_tolerance = function_tolerance;
+  REQUIRE(usable(problem->solve(opt, &run.sum)));
+  run.evaluations = f.evaluations;
+  run.jacobian_evaluations = f.jacobian_evaluations;
+  *gradient = problem->reduced_gradient(0);
+  return run;
+}
+
+}  // namespace
+
+TEST_CASE("The candidate's whole pass: the same solve with fewer sweeps, refused and discarded candidates included",
+          "[solver][problem]") {
+  // From 0.95 every step is taken: each candidate worth it is linearized whole instead of being
+  // costed first and linearized after. From 0.3 the first steps overshoot and are refused: the
+  // first refused candidate's pass is undone by linearizing the iterate again, and the next
+  // candidates are costed first until one is taken. From 2/3 the undamped step lands where
+  // |r| is the same (r = -7.03 -> +7.02): its model predicts the whole cost away, so the pass
+  // runs, and the function tolerance (0.1) then discards it and ends the solve.
+  struct Case {
+    double x0, radius, ftol;
+  };
+  for (const Case c : {Case{0.95, 1e16, 1e-6}, Case{0.3, 1e4, 1e-6}, Case{0.667, 1e16, 0.1}}) {
+    INFO("x0 " << c.x0);
+    double g_plain = 0.0, g_whole = 0.0;
+    const CubeRun plain = solve_cube_whole_pass(c.x0, c.radius, false, c.ftol, &g_plain);
+    const CubeRun whole = solve_cube_whole_pass(c.x0, c.radius, true, c.ftol, &g_whole);
+    CHECK(whole.x == plain.x);  // the same bits
+    CHECK(g_whole == g_plain);  // the iterate's system is back after a discarded candidate
+    CHECK(whole.sum.iterations == plain.sum.iterations);
+    CHECK(whole.sum.successful_steps == plain.sum.successful_steps);
+    CHECK(whole.sum.final_cost == plain.sum.final_cost);
+    CHECK(whole.sum.termination == plain.sum.termination);
+    if (c.x0 > 0.9) {
+      CHECK(std::abs(whole.x - 1.0) < 1e-6);
+      CHECK(whole.jacobian_evaluations == plain.jacobian_evaluations);
+      CHECK(whole.evaluations < plain.evaluations);  // cost passes saved
+      CHECK(whole.sum.residual_passes == whole.evaluations);
+    } else if (c.x0 < 0.5) {
+      CHECK(std::abs(whole.x - 1.0) < 1e-6);
+      CHECK(plain.sum.iterations > plain.sum.successful_steps + 2);  // refused candidates
+      CHECK(whole.jacobian_evaluations == plain.jacobian_evaluations + 2);  // the first refused one, and its undoing
+    } else {
+      REQUIRE(plain.sum.termination == Termination::kFunctionTolerance);
+      REQUIRE(plain.sum.successful_steps == 0);
+      CHECK(plain.evaluations == 2);  // the start, the candidate's cost
+      CHECK(whole.evaluations == 3);  // the start, the candidate's whole pass, the iterate's again
+    }
+  }
+}
+
+namespace {
+
 // How a window solve's first candidate ends (the candidate's gradient pass runs, or must not).
 enum class FirstCandidate { kAccepted, kRefused, kLastStep, kConverged };
 
@@ -1627,6 +1694,65 @@ TEST_CASE("The candidate's gradient pass on a window: the same bits however the 
     REQUIRE(fused.size() == plain.size());
     int differ = 0;
     for (std::size_t i = 0; i < plain.size(); ++i) differ += fused[i] != plain[i];
+    CHECK(differ == 0);
+  }
+}
+
+namespace {
+
+// The noisy window (lifts or not, frame 0 hinted) solved by plain Levenberg-Marquardt with the
+// candidate's whole pass on or off, every candidate taken or (an acceptance test no step passes)
+// every one refused; then frame 0 marginalized. out: as window_first_candidate's.
+SolverSummary window_whole_pass(bool lifts, bool refuse, bool whole, std::vector<double>* out) {
+  WarmWindow s = warm_window(lifts, true);
+  SolverOptions opt;
+  opt.max_iterations = 4;
+  opt.whole_pass_on_candidate = whole;
+  if (refuse) opt.min_relative_decrease = 2.0;  // twice what its model predicts
+  SolverSummary sum;
+  REQUIRE(usable(s.problem->solve(opt, &sum)));
+  out->clear();
+  for (const auto& p : s.w->poses) out->insert(out->end(), p.begin(), p.end());
+  for (const double d : s.w->inv_depth) out->push_back(d);
+  for (int i = 0; i < s.problem->reduced_dim(); ++i) out->push_back(s.problem->reduced_gradient(i));
+  for (int l = 0; l < s.problem->num_landmark_slots(); ++l)
+    for (int k = 0; k < 3; ++k) out->push_back(s.problem->landmark_gradient(l, k));
+  const std::vector<BlockId> marg = frame0_blocks(*s.w);
+  auto prior = std::make_unique<MarginalPrior>();
+  REQUIRE(s.problem->marginalize(marg.data(), static_cast<int>(marg.size()), prior.get()) == SolverStatus::kOk);
+  const auto H = prior->information();
+  out->insert(out->end(), H.data(), H.data() + H.size());
+  out->insert(out->end(), prior->r0().data(), prior->r0().data() + prior->r0().size());
+  return sum;
+}
+
+}  // namespace
+
+TEST_CASE("The candidate's whole pass on a window: the same bits, taken or refused", "[solver][problem]") {
+  // Taken: a cost pass fewer per candidate worth the pass. Refused: the iterate's system, with
+  // the hinted landmarks' separated terms that the marginalization reuses, comes back from a
+  // second linearization of the iterate. Compared bit for bit: the state, the gradient and the
+  // marginal prior.
+  for (const bool lifts : {false, true})
+  for (const bool refuse : {false, true}) {
+    INFO("point lifts " << lifts << ", refused " << refuse);
+    std::vector<double> plain, whole;
+    const SolverSummary sp = window_whole_pass(lifts, refuse, false, &plain);
+    const SolverSummary sw = window_whole_pass(lifts, refuse, true, &whole);
+    if (refuse) {
+      REQUIRE(sp.successful_steps == 0);
+      CHECK(sw.linearizations == sp.linearizations + 1);  // the first candidate's undoing
+    } else {
+      REQUIRE(sp.successful_steps >= 2);
+      CHECK(sw.linearizations == sp.linearizations);
+      CHECK(sw.residual_passes < sp.residual_passes);
+    }
+    CHECK(sw.iterations == sp.iterations);
+    CHECK(sw.successful_steps == sp.successful_steps);
+    CHECK(sw.final_cost == sp.final_cost);
+    REQUIRE(whole.size() == plain.size());
+    int differ = 0;
+    for (std::size_t i = 0; i < plain.size(); ++i) differ += whole[i] != plain[i];
     CHECK(differ == 0);
   }
 }
