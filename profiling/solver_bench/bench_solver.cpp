@@ -8,6 +8,7 @@
 //
 //   umsvins_bench_solver [--runs N] [--landmarks N] [--frames N] [--seed N] [--max-iterations N]
 //                        [--fixed-extrinsic 1] [--ours-only 1] [--point-lifts 0] [--reuse-matrix 1]
+//                        [--whole-pass 0]
 // --point-lifts 0: ours linearizes every reprojection with its own host and inverse-depth
 // Jacobians instead of through the landmark's point (solver/residual.hpp, PointLift).
 
@@ -267,6 +268,9 @@ int main(int argc, char** argv) {
   opt.max_iterations = arg_int(argc, argv, "--max-iterations", 20);
   // --reuse-matrix 1: ours with the estimator's gradient pass (not Ceres' algorithm step for step).
   opt.reuse_gauss_newton_matrix = arg_int(argc, argv, "--reuse-matrix", 0) != 0;
+  // --whole-pass 0: ours costs every candidate in a pass of its own before linearizing it, as
+  // Ceres does (the same steps either way; SolverOptions::whole_pass_on_candidate).
+  opt.whole_pass_on_candidate = arg_int(argc, argv, "--whole-pass", 1) != 0;
 
   auto w = ums::bench::make_vio_window(cfg);
   int n_reproj = 0, n_stereo_host = 0, n_imu = 0;
