@@ -1478,7 +1478,8 @@ struct CubeRun {
   SolverSummary sum;
 };
 
-CubeRun solve_counted_cube(double x0, double radius, bool on_candidate, int fail_jacobian = 0) {
+// The counted cube from x0 with opt; gradient (if given): the solver's gradient at the end.
+CubeRun solve_counted_cube_with(double x0, const SolverOptions& opt, int fail_jacobian, double* gradient = nullptr) {
   auto problem = std::make_unique<Problem>();
   CountedCube f;
   f.fail_jacobian = fail_jacobian;
@@ -1487,14 +1488,19 @@ CubeRun solve_counted_cube(double x0, double radius, bool on_candidate, int fail
   BlockId id = 0;
   REQUIRE(problem->add_euclidean_block(&run.x, 1, &id) == SolverStatus::kOk);
   REQUIRE(problem->add_residual(&f, RobustLoss::trivial(), {id}) == SolverStatus::kOk);
+  REQUIRE(usable(problem->solve(opt, &run.sum)));
+  run.evaluations = f.evaluations;
+  run.jacobian_evaluations = f.jacobian_evaluations;
+  if (gradient != nullptr) *gradient = problem->reduced_gradient(0);
+  return run;
+}
+
+CubeRun solve_counted_cube(double x0, double radius, bool on_candidate, int fail_jacobian = 0) {
   SolverOptions opt;
   opt.reuse_gauss_newton_matrix = true;
   opt.gradient_pass_on_candidate = on_candidate;
   opt.initial_trust_region_radius = radius;
-  REQUIRE(usable(problem->solve(opt, &run.sum)));
-  run.evaluations = f.evaluations;
-  run.jacobian_evaluations = f.jacobian_evaluations;
-  return run;
+  return solve_counted_cube_with(x0, opt, fail_jacobian);
 }
 
 }  // namespace
@@ -1552,22 +1558,11 @@ namespace {
 // r = 10 (x^3 - 1) from x0 with plain Levenberg-Marquardt (no gradient pass), the candidate's
 // whole pass on or off; gradient: the solver's gradient at the end.
 CubeRun solve_cube_whole_pass(double x0, double radius, bool whole, double function_tolerance, double* gradient) {
-  auto problem = std::make_unique<Problem>();
-  CountedCube f;
-  CubeRun run;
-  run.x = x0;
-  BlockId id = 0;
-  REQUIRE(problem->add_euclidean_block(&run.x, 1, &id) == SolverStatus::kOk);
-  REQUIRE(problem->add_residual(&f, RobustLoss::trivial(), {id}) == SolverStatus::kOk);
   SolverOptions opt;
   opt.whole_pass_on_candidate = whole;
   opt.initial_trust_region_radius = radius;
   opt.function_tolerance = function_tolerance;
-  REQUIRE(usable(problem->solve(opt, &run.sum)));
-  run.evaluations = f.evaluations;
-  run.jacobian_evaluations = f.jacobian_evaluations;
-  *gradient = problem->reduced_gradient(0);
-  return run;
+  return solve_counted_cube_with(x0, opt, 0, gradient);
 }
 
 }  // namespace
@@ -1614,6 +1609,22 @@ TEST_CASE("The candidate's whole pass: the same solve with fewer sweeps, refused
 
 namespace {
 
+// A solved window's state, gradient and (frame 0 marginalized) marginal prior, in that order.
+void window_outcome(WarmWindow& s, std::vector<double>* out) {
+  out->clear();
+  for (const auto& p : s.w->poses) out->insert(out->end(), p.begin(), p.end());
+  for (const double d : s.w->inv_depth) out->push_back(d);
+  for (int i = 0; i < s.problem->reduced_dim(); ++i) out->push_back(s.problem->reduced_gradient(i));
+  for (int l = 0; l < s.problem->num_landmark_slots(); ++l)
+    for (int k = 0; k < 3; ++k) out->push_back(s.problem->landmark_gradient(l, k));
+  const std::vector<BlockId> marg = frame0_blocks(*s.w);
+  auto prior = std::make_unique<MarginalPrior>();
+  REQUIRE(s.problem->marginalize(marg.data(), static_cast<int>(marg.size()), prior.get()) == SolverStatus::kOk);
+  const auto H = prior->information();
+  out->insert(out->end(), H.data(), H.data() + H.size());
+  out->insert(out->end(), prior->r0().data(), prior->r0().data() + prior->r0().size());
+}
+
 // How a window solve's first candidate ends (the candidate's gradient pass runs, or must not).
 enum class FirstCandidate { kAccepted, kRefused, kLastStep, kConverged };
 
@@ -1637,18 +1648,7 @@ SolverSummary window_first_candidate(bool lifts, FirstCandidate how, bool on_can
   }
   SolverSummary sum;
   REQUIRE(usable(s.problem->solve(opt, &sum)));
-  out->clear();
-  for (const auto& p : s.w->poses) out->insert(out->end(), p.begin(), p.end());
-  for (const double d : s.w->inv_depth) out->push_back(d);
-  for (int i = 0; i < s.problem->reduced_dim(); ++i) out->push_back(s.problem->reduced_gradient(i));
-  for (int l = 0; l < s.problem->num_landmark_slots(); ++l)
-    for (int k = 0; k < 3; ++k) out->push_back(s.problem->landmark_gradient(l, k));
-  const std::vector<BlockId> marg = frame0_blocks(*s.w);
-  auto prior = std::make_unique<MarginalPrior>();
-  REQUIRE(s.problem->marginalize(marg.data(), static_cast<int>(marg.size()), prior.get()) == SolverStatus::kOk);
-  const auto H = prior->information();
-  out->insert(out->end(), H.data(), H.data() + H.size());
-  out->insert(out->end(), prior->r0().data(), prior->r0().data() + prior->r0().size());
+  window_outcome(s, out);
   return sum;
 }
 
@@ -1711,18 +1711,7 @@ SolverSummary window_whole_pass(bool lifts, bool refuse, bool whole, std::vector
   if (refuse) opt.min_relative_decrease = 2.0;  // twice what its model predicts
   SolverSummary sum;
   REQUIRE(usable(s.problem->solve(opt, &sum)));
-  out->clear();
-  for (const auto& p : s.w->poses) out->insert(out->end(), p.begin(), p.end());
-  for (const double d : s.w->inv_depth) out->push_back(d);
-  for (int i = 0; i < s.problem->reduced_dim(); ++i) out->push_back(s.problem->reduced_gradient(i));
-  for (int l = 0; l < s.problem->num_landmark_slots(); ++l)
-    for (int k = 0; k < 3; ++k) out->push_back(s.problem->landmark_gradient(l, k));
-  const std::vector<BlockId> marg = frame0_blocks(*s.w);
-  auto prior = std::make_unique<MarginalPrior>();
-  REQUIRE(s.problem->marginalize(marg.data(), static_cast<int>(marg.size()), prior.get()) == SolverStatus::kOk);
-  const auto H = prior->information();
-  out->insert(out->end(), H.data(), H.data() + H.size());
-  out->insert(out->end(), prior->r0().data(), prior->r0().data() + prior->r0().size());
+  window_outcome(s, out);
   return sum;
 }
 
