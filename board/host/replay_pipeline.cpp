@@ -111,25 +111,25 @@ void ReplayPipeline::on_frame_done(const VioFrameRecord& record, const StereoFra
 }
 
 void ReplayPipeline::record_stage_times(const VioFrameRecord& frame) {
-  times_->record(Stage::kFrontend, frame.frontend_ms);
+  times_->record(Stage::kFrontend, static_cast<double>(frame.frontend_ms));
   if (frame.frontend_status == Status::kOk) {
     accumulate_features(vio_.features());
     const FrontendFrameStats& fs = vio_.features().stats;
-    times_->record(Stage::kPyramid, fs.pyramid_ms);
-    times_->record(Stage::kDetect, fs.detect_ms);
-    times_->record(Stage::kTrack, fs.track_ms);
-    times_->record(Stage::kStereo, fs.stereo_ms);
-    times_->record(Stage::kRansac, fs.ransac_ms);
+    times_->record(Stage::kPyramid, static_cast<double>(fs.pyramid_ms));
+    times_->record(Stage::kDetect, static_cast<double>(fs.detect_ms));
+    times_->record(Stage::kTrack, static_cast<double>(fs.track_ms));
+    times_->record(Stage::kStereo, static_cast<double>(fs.stereo_ms));
+    times_->record(Stage::kRansac, static_cast<double>(fs.ransac_ms));
   }
   if (!frame.estimated) return;
   const EstimatorTiming& timing = frame.timing;
-  times_->record(Stage::kPreintegrate, timing.preintegrate_ms);
+  times_->record(Stage::kPreintegrate, static_cast<double>(timing.preintegrate_ms));
   if (frame.estimate.mode != EstimatorMode::kImuOnly) {
-    times_->record(Stage::kSolveRound1, timing.solve_round1_ms);
-    times_->record(Stage::kSolveRound2, timing.solve_round2_ms);
+    times_->record(Stage::kSolveRound1, static_cast<double>(timing.solve_round1_ms));
+    times_->record(Stage::kSolveRound2, static_cast<double>(timing.solve_round2_ms));
   }
-  if (timing.marginalize_ms > 0.0f) times_->record(Stage::kMarginalize, timing.marginalize_ms);
-  times_->record(Stage::kBackend, timing.backend_ms);
+  if (timing.marginalize_ms > 0.0f) times_->record(Stage::kMarginalize, static_cast<double>(timing.marginalize_ms));
+  times_->record(Stage::kBackend, static_cast<double>(timing.backend_ms));
 }
 
 void ReplayPipeline::record_series(const VioFrameRecord& rec, const StereoFrame& frame) {
@@ -163,7 +163,7 @@ void ReplayPipeline::accumulate_features(const FrameFeatures& f) {
   sum_2d_right_ += f.n_2d_right;
   for (const FeatureObservation& o : f.features) sum_track_length_ += o.track_length;
   observations_ += static_cast<double>(f.features.size());
-  const double rms = f.stats.stereo_epipolar_rms_px;
+  const double rms = static_cast<double>(f.stats.stereo_epipolar_rms_px);
   sum_sq_epipolar_px_ += rms * rms * f.n_3d;
   epipolar_matches_ += f.n_3d;
 }

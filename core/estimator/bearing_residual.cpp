@@ -91,15 +91,6 @@ Pose read_pose(const double* x) {
   return {Eigen::Vector3d(x[0], x[1], x[2]), q.toRotationMatrix()};
 }
 
-// A * hat(v) for a 2x3 A, row by row: a^T hat(v) = (a x v)^T.
-__attribute__((always_inline)) inline Eigen::Matrix<double, 2, 3> times_hat(const Eigen::Matrix<double, 2, 3>& A,
-                                                                          const Eigen::Vector3d& v) {
-  Eigen::Matrix<double, 2, 3> out;
-  out.row(0) = A.row(0).transpose().cross(v).transpose();
-  out.row(1) = A.row(1).transpose().cross(v).transpose();
-  return out;
-}
-
 }  // namespace
 
 // The residual from the point in the target camera and, when D is given, d r / d P_ct (2x3):

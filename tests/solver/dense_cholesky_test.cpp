@@ -3,6 +3,7 @@
 #include <catch2/catch.hpp>
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
+#include <Eigen/QR>
 #include <cmath>
 #include <limits>
 #include <random>

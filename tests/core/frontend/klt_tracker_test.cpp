@@ -363,7 +363,7 @@ TEST_CASE("fixed-point bilinear samples stay within half a grey level of exact b
     ums::sample_patch_bilinear(v, x, y, 15, out);
     for (int j = 0; j < 15; ++j) {
       for (int i = 0; i < 15; ++i) {
-        const double e = std::abs(out[j * 15 + i] - exact_bilinear(v, x + static_cast<float>(i), y + static_cast<float>(j)));
+        const double e = static_cast<double>(std::abs(out[j * 15 + i] - exact_bilinear(v, x + static_cast<float>(i), y + static_cast<float>(j))));
         max_err = std::max(max_err, e);
         sum_err += e;
         ++samples;
