@@ -360,6 +360,7 @@ bool Problem::evaluate_candidate(const LmState& s, double model_change, double s
 // same bits. false: that linearization failed (it did not, the first time).
 bool Problem::drop_candidate_linearization(LmState& s) {
   const bool spoiled = iterate_system_spoiled_, gradient = candidate_linearized_ && !spoiled;
+  if (spoiled && candidate_linearized_) ++s.summary.linearizations;  // the candidate's, not taken
   candidate_linearized_ = false;
   iterate_system_spoiled_ = false;
   if (gradient) restore_gradient_terms();

@@ -52,7 +52,8 @@ struct SolverOptions {
   // change is well above what the function tolerance discards), the candidate's cost comes from
   // that whole linearization, run before the decision, instead of from a cost pass before it. A
   // candidate that is then not taken costs a linearization at the iterate again, which gives its
-  // system back bit for bit (docs/solver.md, "The candidate's whole pass").
+  // system back bit for bit. The same bits as off, for residuals whose values do not depend on
+  // which Jacobians are wanted (docs/solver.md, "The candidate's whole pass").
   bool whole_pass_on_candidate = true;
   // Not in Ceres; false turns it off. The step right after reuse_gauss_newton_matrix's gradient
   // pass is solved with the factor of the step before: the matrix is the same, and only the
@@ -91,7 +92,8 @@ struct SolverSummary {
   double final_cost = 0.0;    // same, at the returned state
   int iterations = 0;         // completed step attempts (= Ceres' summary.iterations.size() - 1)
   int successful_steps = 0;
-  int linearizations = 0;     // Jacobian evaluations of the whole problem
+  int linearizations = 0;     // Jacobian evaluations of the whole problem (a candidate's whole pass
+                              // not taken included)
   int gradient_passes = 0;    // of them, gradient only (reuse_gauss_newton_matrix)
   int factor_reuses = 0;      // valid steps solved with the factor of the step before (reuse_factorization),
                               // the one a predicted stop ends on included

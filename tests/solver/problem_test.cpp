@@ -550,8 +550,9 @@ TEST_CASE("The evaluation callback runs before every pass of solve, cost and mar
   SolverSummary sum;
   REQUIRE(usable(problem->solve(opt, &sum)));
   CHECK(std::abs(x - std::log(5.0)) < 1e-6);
-  // One per sweep over the residuals: linearizations, candidates' costs.
-  CHECK(seen.calls >= sum.residual_passes);
+  // One per sweep over the residuals (linearizations, candidates' costs) and one for the cost of
+  // the residuals over constant blocks.
+  CHECK(seen.calls == sum.residual_passes + 1);
   CHECK(sum.residual_passes >= sum.linearizations);
   x = 1.0;
   const int before = seen.calls;
@@ -1557,12 +1558,13 @@ namespace {
 
 // r = 10 (x^3 - 1) from x0 with plain Levenberg-Marquardt (no gradient pass), the candidate's
 // whole pass on or off; gradient: the solver's gradient at the end.
-CubeRun solve_cube_whole_pass(double x0, double radius, bool whole, double function_tolerance, double* gradient) {
+CubeRun solve_cube_whole_pass(double x0, double radius, bool whole, double function_tolerance, double* gradient,
+                              int fail_jacobian = 0) {
   SolverOptions opt;
   opt.whole_pass_on_candidate = whole;
   opt.initial_trust_region_radius = radius;
   opt.function_tolerance = function_tolerance;
-  return solve_counted_cube_with(x0, opt, 0, gradient);
+  return solve_counted_cube_with(x0, opt, fail_jacobian, gradient);
 }
 
 }  // namespace
@@ -1603,8 +1605,26 @@ TEST_CASE("The candidate's whole pass: the same solve with fewer sweeps, refused
       REQUIRE(plain.sum.successful_steps == 0);
       CHECK(plain.evaluations == 2);  // the start, the candidate's cost
       CHECK(whole.evaluations == 3);  // the start, the candidate's whole pass, the iterate's again
+      CHECK(whole.sum.linearizations == plain.sum.linearizations + 2);
     }
   }
+}
+
+TEST_CASE("The candidate's whole pass fails: the cost pass decides, the iterate's system comes back",
+          "[solver][problem]") {
+  // The second Jacobian evaluation is the first candidate's whole pass: it fails, the plain cost
+  // pass accepts the candidate and the acceptance linearizes it. The solve is the one without the
+  // whole pass, bit for bit.
+  double g_plain = 0.0, g_failed = 0.0;
+  const CubeRun plain = solve_cube_whole_pass(0.95, 1e16, false, 1e-6, &g_plain);
+  const CubeRun failed = solve_cube_whole_pass(0.95, 1e16, true, 1e-6, &g_failed, 2);
+  CHECK(failed.x == plain.x);
+  CHECK(g_failed == g_plain);
+  CHECK(failed.sum.iterations == plain.sum.iterations);
+  CHECK(failed.sum.successful_steps == plain.sum.successful_steps);
+  CHECK(failed.sum.final_cost == plain.sum.final_cost);
+  CHECK(failed.sum.termination == plain.sum.termination);
+  CHECK(failed.jacobian_evaluations > plain.jacobian_evaluations);  // the failed pass ran
 }
 
 namespace {
@@ -1730,7 +1750,7 @@ TEST_CASE("The candidate's whole pass on a window: the same bits, taken or refus
     const SolverSummary sw = window_whole_pass(lifts, refuse, true, &whole);
     if (refuse) {
       REQUIRE(sp.successful_steps == 0);
-      CHECK(sw.linearizations == sp.linearizations + 1);  // the first candidate's undoing
+      CHECK(sw.linearizations == sp.linearizations + 2);  // the first candidate's pass, its undoing
     } else {
       REQUIRE(sp.successful_steps >= 2);
       CHECK(sw.linearizations == sp.linearizations);
