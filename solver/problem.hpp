@@ -270,11 +270,12 @@ class Problem {
   double apply_candidate();
   void restore_values();
   bool predicted_converged(LmState& s, double model_change);
+  static bool step_small(const LmState& s, double step_norm);  // the parameter tolerance's test
   bool candidate_converged(LmState& s, double step_norm, double cand_cost);
   bool accept_step(LmState& s, double cand_cost, double relative_decrease);
-  // The candidate's cost, from the gradient pass that accepting it would run next when there is
-  // one (gradient_pass_follows): one sweep over the residuals instead of two. The iterate's
-  // gradient terms are kept aside meanwhile and put back unless the candidate is accepted.
+  // The candidate's cost, from the pass that accepting it would run next when there is one (the
+  // gradient pass, or a whole linearization when the candidate looks acceptable): one sweep over
+  // the residuals instead of two. The iterate's terms come back unless it is accepted.
   bool evaluate_candidate(const LmState& s, double model_change, double step_norm, double* cost);
   bool step_budget_spent(const LmState& s) const;    // accepting uses the last permitted step
   bool last_permitted_step(const LmState& s) const;  // accepting ends the solve unlinearized

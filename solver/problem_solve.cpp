@@ -233,12 +233,18 @@ bool Problem::predicted_converged(LmState& s, double model_change) {
   return true;
 }
 
+// Ceres' parameter tolerance: |x_new - x| <= tol (|x| + tol).
+bool Problem::step_small(const LmState& s, double step_norm) {
+  const double tol = s.options.parameter_tolerance;
+  return step_norm <= tol * (s.x_norm + tol);
+}
+
 // Parameter tolerance |x_new - x| <= tol (|x| + tol), then function tolerance |cost change| <=
 // tol * cost: either discards the candidate and ends the solve (true).
 bool Problem::candidate_converged(LmState& s, double step_norm, double cand_cost) {
   const SolverOptions& o = s.options;
   Termination t;
-  if (step_norm <= o.parameter_tolerance * (s.x_norm + o.parameter_tolerance))
+  if (step_small(s, step_norm))
     t = Termination::kParameterTolerance;
   else if (std::abs(s.x_cost - cand_cost) <= o.function_tolerance * s.x_cost)
     t = Termination::kFunctionTolerance;
@@ -331,7 +337,7 @@ bool Problem::candidate_takes_whole_pass(const LmState& s, double model_change, 
   const SolverOptions& o = s.options;
   return o.whole_pass_on_candidate && !s.stale_matrix && !s.refused_last && !gradient_only_at_acceptance(s) &&
          !last_permitted_step(s) && model_change > kModelShare * o.function_tolerance * s.x_cost &&
-         step_norm > o.parameter_tolerance * (s.x_norm + o.parameter_tolerance);
+         !step_small(s, step_norm);
 }
 
 // The candidate's residuals with their Jacobians when accepting it would run that pass anyway
