@@ -74,9 +74,11 @@ int pivoted_cholesky(MatrixMap W, int dim, int* perm) {
   return rank;
 }
 
-// J = U P^T D^1/2 (rows >= rank are zero); J^T r0 = b <=> U^T r0 = P^T D^-1/2 b.
+// J = U P^T D^1/2 (rows >= rank are zero); J^T r0 = b <=> U^T r0 = P^T D^-1/2 b. F: J's first
+// rank rows with the columns in pivot order (U D^1/2 P, upper triangular), row-major, leading
+// dimension dim.
 void unscale_factor(MatrixMap W, const DenseVector& sqrt_d, const int* perm, int rank,
-                    const Eigen::Ref<const Eigen::VectorXd>& b, MatrixMap J, DenseVector& r0) {
+                    const Eigen::Ref<const Eigen::VectorXd>& b, MatrixMap J, DenseVector& r0, double* F) {
   const int dim = static_cast<int>(sqrt_d.size());
   J.setZero();
   r0.resize(dim);
@@ -88,7 +90,59 @@ void unscale_factor(MatrixMap W, const DenseVector& sqrt_d, const int* perm, int
   }
   for (int j = 0; j < dim; ++j) {
     const int c = perm[j];
-    for (int i = 0; i <= j && i < rank; ++i) J(i, c) = W(i, j) * sqrt_d[c];
+    for (int i = 0; i <= j && i < rank; ++i) F[i * dim + j] = J(i, c) = W(i, j) * sqrt_d[c];
+    for (int i = j + 1; i < rank; ++i) F[i * dim + j] = 0.0;
+  }
+}
+
+// H0 = J^T J (W, whole) from F (unscale_factor). Entry (perm[a], perm[b]), a <= b, is the dot
+// product of J's columns perm[a] and perm[b] over the rows r <= a (below, column perm[a] is
+// zero), summed from row 0 on: the doubles Eigen's dot gives. Rows a and a + 1 go in one packet;
+// row a's sum then also takes the zero product F[a + 1][a] F[a + 1][b], which changes nothing
+// but the sign of a zero sum. Two columns share each packet's loads.
+void information_from_rows(const double* F, int dim, int rank, const int* perm, MatrixMap W) {
+  if (rank == 0) {
+    W.setZero();
+    return;
+  }
+  auto set = [&](int a, int b, double v) { W(perm[a], perm[b]) = W(perm[b], perm[a]) = v; };
+  // Rows a, a + 1 of column b.
+  auto rows_pair = [&](int a, int b) {
+    const int rows = std::min(a + 2, rank);
+    Pair s = load_pair(F + a) * Pair{F[b], F[b]};
+    for (int r = 1; r < rows; ++r) s = s + load_pair(F + r * dim + a) * Pair{F[r * dim + b], F[r * dim + b]};
+    set(a, b, s[0]);
+    set(a + 1, b, s[1]);
+  };
+  auto diagonal = [&](int a) {
+    const int rows = std::min(a + 1, rank);
+    double s = F[a] * F[a];
+    for (int r = 1; r < rows; ++r) s += F[r * dim + a] * F[r * dim + a];
+    set(a, a, s);
+  };
+  int b = 0;
+  for (; b + 2 <= dim; b += 2) {
+    int a = 0;
+    for (; a + 2 <= b; a += 2) {  // rows a, a + 1 of columns b, b + 1
+      const int rows = std::min(a + 2, rank);
+      const Pair fa = load_pair(F + a), fb = load_pair(F + b);
+      Pair s0 = fa * Pair{fb[0], fb[0]}, s1 = fa * Pair{fb[1], fb[1]};
+      for (int r = 1; r < rows; ++r) {
+        const Pair ra = load_pair(F + r * dim + a), rb = load_pair(F + r * dim + b);
+        s0 = s0 + ra * Pair{rb[0], rb[0]};
+        s1 = s1 + ra * Pair{rb[1], rb[1]};
+      }
+      set(a, b, s0[0]);
+      set(a + 1, b, s0[1]);
+      set(a, b + 1, s1[0]);
+      set(a + 1, b + 1, s1[1]);
+    }
+    diagonal(b);
+    rows_pair(b, b + 1);
+  }
+  if (b < dim) {
+    for (int a = 0; a + 2 <= b; a += 2) rows_pair(a, b);
+    diagonal(b);
   }
 }
 
@@ -117,18 +171,10 @@ SolverStatus MarginalPrior::set_from_information(const PriorBlock* blocks, int n
   const int rank = pivoted_cholesky(W, dim, perm);
   J_.resize(dim, dim);
   MatrixMap J = J_.m();
-  unscale_factor(W, sqrt_d, perm, rank, b, J, r0_);
-  // H0 = J^T J, exactly the information the prior applies. Column perm[k] of J is zero below row
-  // k (J = U P^T D^1/2, U upper triangular), so a product of two columns ends at the row of the
-  // earlier one: the terms left out are exact zeros.
-  int pos[capacity::kMaxReducedDim];
-  for (int k = 0; k < dim; ++k) pos[perm[k]] = k;
-  for (int j = 0; j < dim; ++j)
-    for (int i = 0; i <= j; ++i) {
-      const int rows = std::min(std::min(pos[i], pos[j]) + 1, rank);
-      W(i, j) = J.col(i).head(rows).dot(J.col(j).head(rows));
-      W(j, i) = W(i, j);
-    }
+  rows_.resize(dim, dim);
+  unscale_factor(W, sqrt_d, perm, rank, b, J, r0_, rows_.m().data());
+  // H0 = J^T J, exactly the information the prior applies.
+  information_from_rows(rows_.m().data(), dim, rank, perm, W);
 
   for (int i = 0; i < num_blocks; ++i) blocks_[i] = blocks[i];
   num_blocks_ = num_blocks;

@@ -14,7 +14,7 @@
 //
 // The Jacobian of r with respect to block k's tangent is J[:, k] * B_k, with B_k = I except for a
 // pose's rotation part, Jr^-1(Log(q_lin^-1 q)); add it to a Problem with Problem::add_prior.
-// Big object (about 0.9 MB at kMaxReducedDim = 192): create once at start-up and reuse.
+// Big object (about 1.2 MB at kMaxReducedDim = 192): create once at start-up and reuse.
 
 #include <Eigen/Core>
 
@@ -73,6 +73,7 @@ class MarginalPrior {
   PriorBlock blocks_[capacity::kMaxReducedBlocks];
   DenseMatrix J_;
   DenseMatrix H0_;
+  DenseMatrix rows_;  // workspace of set_from_information: J's rows, columns in pivot order
   DenseVector r0_;
 };
 

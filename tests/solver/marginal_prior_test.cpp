@@ -188,5 +188,54 @@ TEST_CASE("The factor's packet update gives the plain loops' doubles", "[solver]
   }
 }
 
+// Blocks of the given manifolds (pose: ambient 7, else Euclidean of `euclid` each), consecutive.
+int layout_blocks(const std::vector<ManifoldType>& kinds, int euclid, PriorBlock* pb) {
+  int off = 0;
+  for (std::size_t i = 0; i < kinds.size(); ++i) {
+    pb[i] = PriorBlock{};
+    pb[i].manifold = kinds[i];
+    pb[i].ambient_size = kinds[i] == ManifoldType::kPose ? 7 : euclid;
+    pb[i].tangent_size = tangent_size(kinds[i], pb[i].ambient_size);
+    pb[i].offset = off;
+    pb[i].x_lin[6] = 1.0;
+    off += pb[i].tangent_size;
+  }
+  return off;
+}
+
+TEST_CASE("The prior's information is J^T J entry by entry, as the columns' dot products give it", "[solver][prior]") {
+  // H0 is formed two pivot rows and two columns at a time (information_from_rows); every entry
+  // must be the sequential dot product of two columns of J (the rows past the shorter column's
+  // end add exact zeros), for even and odd dimensions, full and deficient rank, and rank 0.
+  bench::Rng rng(17);
+  const ManifoldType P = ManifoldType::kPose, E = ManifoldType::kEuclidean;
+  const std::vector<std::vector<ManifoldType>> layouts = {{P, P}, {P, E, P}, {E, P, P, E}, {P}};
+  for (const auto& kinds : layouts) {
+    PriorBlock pb[4];
+    const int n = layout_blocks(kinds, 9, pb);
+    for (const int rank : {n, n - 5, 1, 0}) {
+      Eigen::MatrixXd A = Eigen::MatrixXd::Zero(std::max(rank, 1), n);
+      for (int r = 0; r < rank; ++r)
+        for (int c = 0; c < n; ++c) A(r, c) = rng.normal() * (c % 7 == 0 ? 40.0 : 1.0);
+      const Eigen::MatrixXd H = A.transpose() * A;
+      const Eigen::VectorXd b = A.transpose() * Eigen::VectorXd::Ones(A.rows());
+      auto prior = std::make_unique<MarginalPrior>();
+      REQUIRE(prior->set_from_information(pb, static_cast<int>(kinds.size()), H, b) == SolverStatus::kOk);
+      const Eigen::MatrixXd J = prior->sqrt_information();
+      const Eigen::MatrixXd H0 = prior->information();
+      int differ = 0;
+      for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) {
+          double s = J(0, i) * J(0, j);
+          for (int r = 1; r < n; ++r) s += J(r, i) * J(r, j);
+          differ += H0(i, j) != s;
+        }
+      INFO("dim " << n << ", rank " << rank << ", |H0 - J^T J| " << (H0 - J.transpose() * J).norm());
+      CHECK(differ == 0);
+      CHECK((H0 - H).norm() <= 1e-10 * (1.0 + H.norm()));
+    }
+  }
+}
+
 }  // namespace
 }  // namespace ums::solver
