@@ -26,6 +26,7 @@ EstimatorOptions estimator_options_from(const AppConfig& config, bool determinis
   o.estimate_td = config.estimate_td;
   o.estimate_gyro_scale = config.estimate_gyro_scale;
   o.max_iterations_round2 = config.max_num_iterations;
+  o.round2_min_outlier_share = config.round2_min_outlier_share;
   o.max_steps_stage = config.max_steps_per_solve;
   o.max_steps_at_keyframes = config.max_steps_at_keyframes;
   o.reuse_gauss_newton_matrix = config.reuse_gauss_newton_matrix;

@@ -340,6 +340,8 @@ void ReplayPipeline::write_estimator_stats(JsonWriter& w) const {
       .value("stage_few_2d_left", e.stage_few_2d_left)
       .value("outlier_landmarks", e.outlier_landmarks)
       .value("second_rounds", e.second_rounds)
+      .value("second_rounds_skipped", e.second_rounds_skipped)
+      .value("second_round_rebuilds", e.second_round_rebuilds)
       .value("marginalized_old", e.marginalized_old)
       .value("marginalized_second_new", e.marginalized_second_new)
       .value("marginalization_failures", e.marginalization_failures)

@@ -411,6 +411,7 @@ void Estimator::write_output(const FrameFeatures& ff, const WindowFrame& f, Esti
 void Estimator::end_frame(const WindowFrame& f, EstimatorTiming* timing) {
   slide_window(timing);
   landmarks_->compact();
+  builder_->forget_kept_outliers();  // released now
   stats_.peak_landmarks = landmarks_->peak();
   stats_.keyframes_emitted = marginalizer_->keyframes_emitted();
   // The next interval starts at this frame.

@@ -80,15 +80,24 @@ ModeEvent Estimator::frame_vo(WindowFrame& f) {
 }
 
 void Estimator::second_round(const SolveSpec& spec, bool converged) {
-  // Round 2 (paper Sec. III-C) on the cleaned set when something was removed or round 1 was cut
-  // short, bounded by time; nothing to refine when round 1 converged without outliers. Cut short
-  // with nothing removed, it continues on round 1's problem as built (solve_again).
+  // Round 2 (paper Sec. III-C) on the cleaned set when round 1 was cut short or removed enough
+  // (round2_min_outlier_share), bounded by time; nothing to refine when round 1 converged without
+  // outliers. Cut short with nothing removed, it continues on round 1's problem as built
+  // (solve_again).
+  const int in_solve = builder_->num_selected();
   const int outliers = builder_->mark_outliers();
-  if (outliers > 0) landmarks_->compact();
-  if (outliers > 0 || !converged) {
+  const bool enough = outliers > 0 && outliers >= options_.round2_min_outlier_share * in_solve;
+  if (enough || !converged) {
+    if (outliers > 0) landmarks_->compact();
     builder_->solve_again(spec, {std::max(1, options_.max_iterations_round2), 0, options_.round2_time_s});
     ++stats_.second_rounds;
+    return;
   }
+  if (outliers == 0) return;
+  // The outliers stay in the map, marked, until the end of the frame: the marginalization reads
+  // round 1's problem (slide_window).
+  ++stats_.second_rounds_skipped;
+  builder_->keep_outliers();
 }
 
 // VIO cannot see a rotation about gravity or a translation of the whole window: only the prior's
@@ -275,6 +284,9 @@ void Estimator::slide_window(EstimatorTiming* timing) {
   WindowFrame& newest = window_->newest();
   const bool vio = inertial_window();
   if (newest.keyframe) {
+    // An outlier kept in round 1's problem (second_round) and seen from the oldest frame would
+    // enter the prior: the problem is built again without the outliers.
+    if (vio && builder_->rebuild_without_outliers_seen_from(window_->slot_at(0))) ++stats_.second_round_rebuilds;
     int ids[2 + capacity::kMaxLandmarks];
     const int n = vio ? builder_->oldest_frame_blocks(ids) : 0;
     if (vio && !marginalizer_->adopt(builder_->problem(), builder_->blocks(), ids, n))

@@ -33,6 +33,8 @@ void EstimatorOptions::validate() const {
   require(share_2d >= 0.0 && share_2d <= 1.0, "share_2d", share_2d);
   require(max_iterations_round2 >= 0, "max_iterations_round2", max_iterations_round2);
   require(round2_time_s >= 0.0, "round2_time_s", round2_time_s);
+  require(round2_min_outlier_share >= 0.0 && round2_min_outlier_share <= 1.0, "round2_min_outlier_share",
+          round2_min_outlier_share);
   require(predicted_stop_share >= 0.0 && predicted_stop_share <= 1.0, "predicted_stop_share",
           predicted_stop_share);
   require(min_align_frames >= 3 && min_align_frames <= window_size, "min_align_frames", min_align_frames);

@@ -110,6 +110,7 @@ void ProblemBuilder::count_solve(const solver::SolverSummary& summary) {
 int ProblemBuilder::build(const SolveSpec& spec) {
   ++stats_->problem_builds;
   built_spec_ = spec;
+  outliers_kept_ = false;
   built_current_ = true;
   problem_->clear();
   n_visual_ = 0;
@@ -459,6 +460,17 @@ int ProblemBuilder::mark_outliers() {
   stats_->outlier_landmarks += static_cast<std::uint64_t>(marked);
   if (marked > 0) built_current_ = false;  // the selection changes (landmarks_->compact())
   return marked;
+}
+
+bool ProblemBuilder::rebuild_without_outliers_seen_from(int slot) {
+  if (!outliers_kept_) return false;
+  bool seen = false;
+  for (int i = 0; i < n_selected_ && !seen; ++i) {
+    const Landmark& l = landmarks_->at_pool(chosen_[i]);
+    seen = l.outlier && l.find_obs(slot) >= 0;
+  }
+  if (seen) build(built_spec_);
+  return seen;
 }
 
 // 1: an edge's residual at the solution is beyond outlier_rad (the residual is whitened by w);

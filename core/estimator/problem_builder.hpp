@@ -94,6 +94,15 @@ class ProblemBuilder {
   // on the values a solve moves). The caller must not have changed the window or the landmarks
   // in between.
   bool solve_again(const SolveSpec& spec, const SolveBudget& budget, bool* converged = nullptr);
+  // The outliers just marked stay in the map, and in the last problem, until the end of the
+  // frame (no second round: Estimator::second_round); forget_kept_outliers() when they are
+  // released, a build leaves them out.
+  void keep_outliers() { outliers_kept_ = true; }
+  void forget_kept_outliers() { outliers_kept_ = false; }
+  // With kept outliers, one of them seen from window slot `slot` (the oldest frame's, whose
+  // marginalization would take it into the prior): the last problem is built again without them,
+  // not solved (the marginalization then linearizes its terms itself). True when it was.
+  bool rebuild_without_outliers_seen_from(int slot);
   // Marks the landmarks of the last solve with an observation beyond outlier_rad (or a depth out
   // of range: depth dropped, re-triangulated later); returns how many were marked.
   int mark_outliers();
@@ -202,6 +211,7 @@ class ProblemBuilder {
   // The problem built last (with built_spec_) is what a build would give now, as far as the
   // builder knows: nothing it holds changed since and the outlier check changed no landmark.
   bool built_current_ = false;
+  bool outliers_kept_ = false;  // keep_outliers(): marked landmarks of the last problem still in the map
   SolveSpec built_spec_;
   PosePrior extrinsic_prior_[2];
   RelativePosePrior baseline_prior_;

@@ -225,7 +225,8 @@ TEST_CASE("the back end's weights are keys of their own", "[config]") {
       dir, std::string(kVinsConfig) +
                "imu_noise_scale: 3.5\nimu_walk_scale: 8\nmax_landmarks_in_solve: 200\nbeta_3d: 1.5\nbeta_2d: 0.5\nmin_stereo_disparity: 2\n"
                "landmark_spread_px: 80\nstage_min_2d_left: 0\nfeature_sigma_px: 2\nhuber_px: 1\noutlier_px: 4\n"
-               "max_speed_m_s: 35\nmax_steps_per_solve: 2\nmax_steps_at_keyframes: 1\nreuse_gauss_newton_matrix: 0\nreuse_factorization: 0\n");
+               "max_speed_m_s: 35\nmax_steps_per_solve: 2\nmax_steps_at_keyframes: 1\nreuse_gauss_newton_matrix: 0\nreuse_factorization: 0\n"
+               "round2_min_outlier_share: 0.05\n");
   std::vector<std::string> warnings;
   const ums::AppConfig c = ums::load_config(path, micro_calibration(), &warnings);
   CHECK(warnings.empty());
@@ -245,6 +246,7 @@ TEST_CASE("the back end's weights are keys of their own", "[config]") {
   CHECK(c.max_steps_at_keyframes);
   CHECK_FALSE(c.reuse_gauss_newton_matrix);
   CHECK_FALSE(c.reuse_factorization);
+  CHECK(c.round2_min_outlier_share == 0.05);
   // Without the keys: the defaults (docs/results.md, "Weights", has the measurements behind them).
   const ums::AppConfig d = ums::load_config(write_vins_config(ums::test::make_temp_dir("config_weights_default"),
                                                               kVinsConfig),

@@ -59,6 +59,7 @@ TEST_CASE("every estimator key of the configuration reaches the estimator's opti
   c.huber_px = 2.5;
   c.outlier_px = 4.5;
   c.max_speed_m_s = 12.0;
+  c.round2_min_outlier_share = 0.125;
   const EstimatorOptions o = estimator_options_from(c, false);
   CHECK(o.focal_px == 433.0);
   CHECK(o.keyframe.focal_px == 433.0f);
@@ -88,6 +89,7 @@ TEST_CASE("every estimator key of the configuration reaches the estimator's opti
   CHECK(o.huber_px == 2.5);
   CHECK(o.outlier_px == 4.5);
   CHECK(o.max_speed_m_s == 12.0);
+  CHECK(o.round2_min_outlier_share == 0.125);
 }
 
 TEST_CASE("a deterministic replay bounds the second round by its iterations, not the wall clock", "[config][cli]") {
