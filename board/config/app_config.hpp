@@ -33,7 +33,7 @@ struct AppConfig {
   // Back end
   double max_solver_time_s = 0.04;      // s, wall-time bound of one window solve (VINS max_solver_time)
   int max_num_iterations = 8;           // solver iterations per window solve (VINS max_num_iterations)
-  double round2_min_outlier_share = 0.0;  // 1, EstimatorOptions::round2_min_outlier_share
+  double round2_min_outlier_share = 0.02;  // 1, EstimatorOptions::round2_min_outlier_share
   int max_steps_per_solve = 1;          // accepted LM steps per first-round window solve (0: until converged)
   bool max_steps_at_keyframes = false;  // the budget also at keyframes (false: they converge)
   bool reuse_gauss_newton_matrix = true;   // window solves: at the first step, the gradient only
