@@ -342,6 +342,7 @@ void ReplayPipeline::write_estimator_stats(JsonWriter& w) const {
       .value("second_rounds", e.second_rounds)
       .value("second_rounds_skipped", e.second_rounds_skipped)
       .value("second_round_rebuilds", e.second_round_rebuilds)
+      .value("outliers_into_prior", e.outliers_into_prior)
       .value("marginalized_old", e.marginalized_old)
       .value("marginalized_second_new", e.marginalized_second_new)
       .value("marginalization_failures", e.marginalization_failures)

@@ -87,7 +87,8 @@ void Estimator::second_round(const SolveSpec& spec, bool converged) {
   const int in_solve = builder_->num_selected();
   const int outliers = builder_->mark_outliers();
   const bool enough = outliers > 0 && outliers >= options_.round2_min_outlier_share * in_solve;
-  if (enough || !converged) {
+  // A relocation's counts (ProblemBuilder::relocation_inliers) read the problem: no outlier kept.
+  if (enough || !converged || (outliers > 0 && builder_->relocating())) {
     if (outliers > 0) landmarks_->compact();
     builder_->solve_again(spec, {std::max(1, options_.max_iterations_round2), 0, options_.round2_time_s});
     ++stats_.second_rounds;
@@ -288,7 +289,9 @@ void Estimator::slide_window(EstimatorTiming* timing) {
     // enter the prior: the problem is built again without the outliers.
     if (vio && builder_->rebuild_without_outliers_seen_from(window_->slot_at(0))) ++stats_.second_round_rebuilds;
     int ids[2 + capacity::kMaxLandmarks];
-    const int n = vio ? builder_->oldest_frame_blocks(ids) : 0;
+    int outliers = 0;
+    const int n = vio ? builder_->oldest_frame_blocks(ids, &outliers) : 0;
+    stats_.outliers_into_prior += static_cast<std::uint64_t>(outliers);
     if (vio && !marginalizer_->adopt(builder_->problem(), builder_->blocks(), ids, n))
       ++stats_.marginalization_failures;
     else if (vio && builder_->problem().marginalization_reused())

@@ -47,9 +47,10 @@ struct EstimatorStats {
   std::uint64_t stage_3d_sufficient = 0;  // no 2D-left landmark to try: one stage
   std::uint64_t stage_few_2d_left = 0;    // fewer than stage_min_2d_left: one solve with them
   std::uint64_t outlier_landmarks = 0;
-  std::uint64_t second_rounds = 0;        // frames whose round 2 ran (outliers or not converged)
+  std::uint64_t second_rounds = 0;        // frames whose round 2 ran (enough outliers or not converged)
   std::uint64_t second_rounds_skipped = 0;  // frames whose outliers were too few for a round 2
   std::uint64_t second_round_rebuilds = 0;  // of them, problems built again for the marginalization
+  std::uint64_t outliers_into_prior = 0;    // landmarks marked as outliers marginalized into the prior (0)
   std::uint64_t marginalized_old = 0;
   std::uint64_t marginalized_second_new = 0;
   std::uint64_t marginalization_failures = 0;

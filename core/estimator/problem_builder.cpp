@@ -114,6 +114,7 @@ int ProblemBuilder::build(const SolveSpec& spec) {
   built_current_ = true;
   problem_->clear();
   n_visual_ = 0;
+  n_chosen_ = n_selected_;
   n_selected_ = 0;
   n_selected_group_[0] = n_selected_group_[1] = n_selected_group_[2] = 0;
   add_state_blocks(spec);
@@ -182,7 +183,7 @@ void ProblemBuilder::add_landmarks(std::uint8_t groups) {
   refresh_edge_time_offset();
   // A relocation looks its landmarks up by pool index: those not chosen must read as absent.
   if (relocation_ != nullptr) std::fill(block_of_landmark_.get(), block_of_landmark_.get() + capacity::kMaxLandmarks, -1);
-  const int keep = select_landmarks(*landmarks_, groups, options_.selection, chosen_.get());
+  const int keep = reuse_selection_ ? kept_selection() : select_landmarks(*landmarks_, groups, options_.selection, chosen_.get());
   for (int c = 0; c < keep; ++c) {
     const int idx = chosen_[c];
     Landmark& l = landmarks_->at_pool(idx);
@@ -425,13 +426,18 @@ void ProblemBuilder::note_window_moved(const Eigen::Matrix3d& R) {
   problem_->note_world_moved(ids, n, R);
 }
 
-int ProblemBuilder::oldest_frame_blocks(int* ids) const {
+int ProblemBuilder::oldest_frame_blocks(int* ids, int* outliers) const {
   const int s0 = window_->slot_at(0);
-  int n = 0;
+  int n = 0, marked = 0;
   ids[n++] = pose_id_[s0];
   ids[n++] = sb_id_[s0];
-  for (int i = 0; i < n_selected_; ++i)
-    if (landmarks_->at_pool(chosen_[i]).find_obs(s0) >= 0) ids[n++] = block_of_landmark_[chosen_[i]];
+  for (int i = 0; i < n_selected_; ++i) {
+    const Landmark& l = landmarks_->at_pool(chosen_[i]);
+    if (l.find_obs(s0) < 0) continue;
+    ids[n++] = block_of_landmark_[chosen_[i]];
+    marked += l.outlier ? 1 : 0;
+  }
+  if (outliers != nullptr) *outliers = marked;
   return n;
 }
 
@@ -469,8 +475,21 @@ bool ProblemBuilder::rebuild_without_outliers_seen_from(int slot) {
     const Landmark& l = landmarks_->at_pool(chosen_[i]);
     seen = l.outlier && l.find_obs(slot) >= 0;
   }
-  if (seen) build(built_spec_);
+  if (seen) {
+    reuse_selection_ = true;
+    build(built_spec_);
+    reuse_selection_ = false;
+  }
   return seen;
+}
+
+// The last build's landmarks without the marked ones, in their order: the round 1 they were
+// solved in, not candidates that took their places (their depths were solved by no one).
+int ProblemBuilder::kept_selection() {
+  int keep = 0;
+  for (int i = 0; i < n_chosen_; ++i)
+    if (!landmarks_->at_pool(chosen_[i]).outlier) chosen_[keep++] = chosen_[i];
+  return keep;
 }
 
 // 1: an edge's residual at the solution is beyond outlier_rad (the residual is whitened by w);

@@ -100,8 +100,9 @@ class ProblemBuilder {
   void keep_outliers() { outliers_kept_ = true; }
   void forget_kept_outliers() { outliers_kept_ = false; }
   // With kept outliers, one of them seen from window slot `slot` (the oldest frame's, whose
-  // marginalization would take it into the prior): the last problem is built again without them,
-  // not solved (the marginalization then linearizes its terms itself). True when it was.
+  // marginalization would take it into the prior): the last problem is built again with its
+  // landmarks but them (no others in their places), not solved (the marginalization then
+  // linearizes its terms itself). True when it was.
   bool rebuild_without_outliers_seen_from(int slot);
   // Marks the landmarks of the last solve with an observation beyond outlier_rad (or a depth out
   // of range: depth dropped, re-triangulated later); returns how many were marked.
@@ -141,7 +142,9 @@ class ProblemBuilder {
   // The last problem, for the marginalizer: the oldest frame's blocks and the landmarks it hosts.
   solver::Problem& problem() { return *problem_; }
   BlockTable& blocks() { return table_; }
-  int oldest_frame_blocks(int* ids) const;
+  // *outliers (optional): of its landmarks, those marked as outliers (keep_outliers()).
+  int oldest_frame_blocks(int* ids, int* outliers = nullptr) const;
+  bool relocating() const { return relocation_ != nullptr; }
   // The window's poses were moved together by a rotation R of the world frame (and a translation)
   // since the last solve (Estimator::hold_gauge): the terms the problem keeps for the
   // marginalization follow (solver::Problem::note_world_moved).
@@ -180,6 +183,7 @@ class ProblemBuilder {
   int relocation_candidates(int* match_of) const;
   int block_id(const EdgeBlock& b, int lm_block) const;
   void set_lift(const Landmark& l, int lm_block, int k);
+  int kept_selection();
 
   ProblemBuilderOptions options_;
   Window* window_;
@@ -212,6 +216,8 @@ class ProblemBuilder {
   // builder knows: nothing it holds changed since and the outlier check changed no landmark.
   bool built_current_ = false;
   bool outliers_kept_ = false;  // keep_outliers(): marked landmarks of the last problem still in the map
+  bool reuse_selection_ = false;  // the next build takes kept_selection(), not a new selection
+  int n_chosen_ = 0;              // chosen_'s length at the last build's start (kept_selection)
   SolveSpec built_spec_;
   PosePrior extrinsic_prior_[2];
   RelativePosePrior baseline_prior_;

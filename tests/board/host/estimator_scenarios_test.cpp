@@ -200,6 +200,9 @@ TEST_CASE("estimator scenario nominal (V101, 6 s): few outliers without a second
   CHECK(skip.number("estimator.second_round_rebuilds") <= skip.number("estimator.second_rounds_skipped"));
   CHECK(skip.number("estimator.second_rounds") < paper.number("estimator.second_rounds") / 2);
   CHECK(skip.number("estimator.marginalization_failures") == 0);
+  // No landmark marked as an outlier reached the prior, in either setting.
+  CHECK(paper.number("estimator.outliers_into_prior") == 0);
+  CHECK(skip.number("estimator.outliers_into_prior") == 0);
   const double ate_paper = paper.number("accuracy.ate_rmse_m"), ate_skip = skip.number("accuracy.ate_rmse_m");
   CHECK(ate_paper > 0.0);
   CHECK(ate_skip > 0.0);
