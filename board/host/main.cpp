@@ -1,10 +1,31 @@
+#include <cstdio>
 #include <iostream>
 #include <string>
 #include <vector>
 
 #include "board/host/commands.hpp"
 
+namespace {
+
+// A host build for x86-64-v3 (cmake/UmsHostIsa.cmake) copied to a machine without AVX2 would die
+// on an illegal instruction somewhere inside a replay; say why instead, before any work.
+bool host_isa_supported() {
+#if defined(__AVX2__) && defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+  __builtin_cpu_init();
+  if (!__builtin_cpu_supports("avx2")) {
+    std::fputs("umsvins: this build uses AVX2 (x86-64-v3) and this CPU has none; configure with "
+               "-DUMS_HOST_ISA=baseline\n",
+               stderr);
+    return false;
+  }
+#endif
+  return true;
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
+  if (!host_isa_supported()) return 1;
   std::vector<std::string> args(argv + 1, argv + argc);
   return ums::cli::run_cli(args, std::cout, std::cerr);
 }
