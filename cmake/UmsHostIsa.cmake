@@ -4,10 +4,12 @@
 # 31.2 -> 25.5 M instructions per frame (front end 16.0 -> 11.9) with byte-identical trajectories
 # (docs/performance.md, session 40).
 #
-# Why no FMA: GCC 12's vectorizer turns a*b -/+ c*d lane pairs (Eigen's Jacobi rotations, the
-# quaternion product) into vfmaddsub even with -ffp-contract=off, which rounds once where the
-# scalar code rounds twice: the last bit of some results moves, and with it the host's identity
-# with the aarch64 build (CMakeLists.txt, UMS_PORTABLE_FP). -mno-fma takes the instructions away.
+# Why no FMA: with -march=x86-64-v3 alone GCC 12's SLP vectorizer emits vfmaddsub (a fused
+# multiply with alternating add/subtract) in 8 functions despite -ffp-contract=off (Eigen's
+# eigen solvers, RelativePosePrior::evaluate, Estimator::rotation_excitation_deg, ...), one
+# rounding where the scalar code has two: the replay's output quaternions moved in their 9th
+# digit, and with them the host's identity with the aarch64 build (CMakeLists.txt,
+# UMS_PORTABLE_FP). -mno-fma takes the instructions away.
 #
 # UMS_HOST_ISA: "auto" (x86-64-v3 when the configuring machine runs AVX2, else the baseline),
 # "x86-64-v3" or "baseline" (x86-64, SSE2: a binary to copy to an older machine). A v3 binary

@@ -13,6 +13,8 @@
 
 #if defined(__ARM_NEON)
 #include <arm_neon.h>
+#elif defined(__AVX2__)
+#include <immintrin.h>
 #elif defined(__SSE2__)
 #include <emmintrin.h>
 #endif
@@ -122,6 +124,28 @@ inline F4 sqrt4(F4 v) {
 #endif
 }
 
+#if defined(__AVX2__)
+// The x86-64-v3 host build (cmake/UmsHostIsa.cmake): the same per-pixel formulas on 8 float
+// lanes (16 integer lanes for the Sobel sums), then the 4-lane kernels for a run's rest. Pixels
+// are independent, so the lane count changes no bit.
+typedef float F8 __attribute__((vector_size(32)));
+typedef short S16 __attribute__((vector_size(32)));
+inline F8 load8_lanes(const float* p) {
+  F8 v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+inline void store8_lanes(float* p, F8 v) { std::memcpy(p, &v, sizeof v); }
+inline S16 load16_u8(const std::uint8_t* p) {
+  return (S16)_mm256_cvtepu8_epi16(_mm_loadu_si128(reinterpret_cast<const __m128i*>(p)));
+}
+template <int kHalf>
+inline F8 half16_to_float(S16 v) {
+  const __m128i half = _mm256_extracti128_si256((__m256i)v, kHalf);
+  return _mm256_cvtepi32_ps(_mm256_cvtepi16_epi32(half));
+}
+#endif
+
 // Calls step(x) for x = x0, x0 + kStep, ... while kStep pixels fit in [x0, x1), then, in a run
 // of kStep pixels or more, once more on its last kStep: that step overlaps the one before, whose
 // pixels it writes again with the same values (or takes their maximum again), instead of a scalar
@@ -157,7 +181,25 @@ void sobel_products(const std::uint8_t* __restrict r0, const std::uint8_t* __res
       store_lanes(yy + x + 4 * h, fy[h] * fy[h]);
     }
   };
-  for (int x = vector_steps<8>(x0, x1, step8); x < x1; ++x) {
+  int x_rest = x0;
+#if defined(__AVX2__)
+  auto step16 = [&](int x) {  // reads up to x + 16 <= width - 1
+    const S16 a0 = load16_u8(r0 + x - 1), a1 = load16_u8(r0 + x), a2 = load16_u8(r0 + x + 1);
+    const S16 b0 = load16_u8(r1 + x - 1), b2 = load16_u8(r1 + x + 1);
+    const S16 c0 = load16_u8(r2 + x - 1), c1 = load16_u8(r2 + x), c2 = load16_u8(r2 + x + 1);
+    const S16 dx = (a2 - a0) + 2 * (b2 - b0) + (c2 - c0);
+    const S16 dy = (c0 - a0) + 2 * (c1 - a1) + (c2 - a2);
+    const F8 fx[2] = {half16_to_float<0>(dx), half16_to_float<1>(dx)};
+    const F8 fy[2] = {half16_to_float<0>(dy), half16_to_float<1>(dy)};
+    for (int h = 0; h < 2; ++h) {
+      store8_lanes(xx + x + 8 * h, fx[h] * fx[h]);
+      store8_lanes(xy + x + 8 * h, fx[h] * fy[h]);
+      store8_lanes(yy + x + 8 * h, fy[h] * fy[h]);
+    }
+  };
+  x_rest = vector_steps<16>(x_rest, x1, step16);
+#endif
+  for (int x = vector_steps<8>(x_rest, x1, step8); x < x1; ++x) {
     const int dx = (r0[x + 1] - r0[x - 1]) + 2 * (r1[x + 1] - r1[x - 1]) + (r2[x + 1] - r2[x - 1]);
     const int dy = (r2[x - 1] - r0[x - 1]) + 2 * (r2[x] - r0[x]) + (r2[x + 1] - r0[x + 1]);
     const float fdx = static_cast<float>(dx), fdy = static_cast<float>(dy);
@@ -170,8 +212,13 @@ void sobel_products(const std::uint8_t* __restrict r0, const std::uint8_t* __res
 // out[x] = a[x] + b[x] + c[x] for x in x0 .. x1-1.
 void sum3_rows(const float* __restrict a, const float* __restrict b, const float* __restrict c, float* __restrict out,
                int x0, int x1) {
+  int x_rest = x0;
+#if defined(__AVX2__)
+  auto step8 = [&](int x) { store8_lanes(out + x, load8_lanes(a + x) + load8_lanes(b + x) + load8_lanes(c + x)); };
+  x_rest = vector_steps<8>(x_rest, x1, step8);
+#endif
   auto step4 = [&](int x) { store_lanes(out + x, load_lanes(a + x) + load_lanes(b + x) + load_lanes(c + x)); };
-  for (int x = vector_steps<4>(x0, x1, step4); x < x1; ++x) out[x] = a[x] + b[x] + c[x];
+  for (int x = vector_steps<4>(x_rest, x1, step4); x < x1; ++x) out[x] = a[x] + b[x] + c[x];
 }
 
 // The smaller eigenvalue of the 3x3-summed tensor from the vertical sums va, vb, vc (Ixx, Ixy,
@@ -184,7 +231,17 @@ void shi_tomasi_row(const float* __restrict va, const float* __restrict vb, cons
     const F4 sc = (load_lanes(vc + x - 1) + load_lanes(vc + x) + load_lanes(vc + x + 1)) * norm;
     store_lanes(out + x, 0.5f * ((sa + sc) - sqrt4((sa - sc) * (sa - sc) + 4.0f * sb * sb)));
   };
-  for (int x = vector_steps<4>(x0, x1, step4); x < x1; ++x) {
+  int x_rest = x0;
+#if defined(__AVX2__)
+  auto step8 = [&](int x) {
+    const F8 sa = (load8_lanes(va + x - 1) + load8_lanes(va + x) + load8_lanes(va + x + 1)) * norm;
+    const F8 sb = (load8_lanes(vb + x - 1) + load8_lanes(vb + x) + load8_lanes(vb + x + 1)) * norm;
+    const F8 sc = (load8_lanes(vc + x - 1) + load8_lanes(vc + x) + load8_lanes(vc + x + 1)) * norm;
+    store8_lanes(out + x, 0.5f * ((sa + sc) - (F8)_mm256_sqrt_ps((__m256)((sa - sc) * (sa - sc) + 4.0f * sb * sb))));
+  };
+  x_rest = vector_steps<8>(x_rest, x1, step8);
+#endif
+  for (int x = vector_steps<4>(x_rest, x1, step4); x < x1; ++x) {
     const float sa = (va[x - 1] + va[x] + va[x + 1]) * norm;
     const float sb = (vb[x - 1] + vb[x] + vb[x + 1]) * norm;
     const float sc = (vc[x - 1] + vc[x] + vc[x + 1]) * norm;

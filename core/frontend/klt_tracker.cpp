@@ -10,7 +10,9 @@
 
 #include "core/frontend/float_lanes.hpp"
 
-#if defined(__SSE2__)
+#if defined(__AVX2__)
+#include <immintrin.h>
+#elif defined(__SSE2__)
 #include <emmintrin.h>
 #elif defined(__ARM_NEON)
 #include <arm_neon.h>
@@ -66,6 +68,25 @@ inline std::int64_t total32(__m128i v) {
 }
 #endif
 
+#if defined(__AVX2__)
+// The x86-64-v3 host build (cmake/UmsHostIsa.cmake): the same exact integer sums on 16 lanes
+// (the 8-lane SSE2 step takes a window's last 8).
+constexpr int kPxLanes16 = 16;
+inline __m256i load_px16(const Px* p) { return _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p)); }
+inline __m256i add_products(__m256i acc, __m256i a, __m256i b) {
+  const __m256i p = _mm256_madd_epi16(a, b);
+  acc = _mm256_add_epi64(acc, _mm256_cvtepi32_epi64(_mm256_castsi256_si128(p)));
+  return _mm256_add_epi64(acc, _mm256_cvtepi32_epi64(_mm256_extracti128_si256(p, 1)));
+}
+inline __m256i add_values(__m256i acc, __m256i a) { return _mm256_add_epi32(acc, _mm256_madd_epi16(a, _mm256_set1_epi16(1))); }
+inline std::int64_t total64(__m256i v) {
+  return total64(_mm_add_epi64(_mm256_castsi256_si128(v), _mm256_extracti128_si256(v, 1)));
+}
+inline std::int64_t total32(__m256i v) {
+  return total32(_mm256_castsi256_si128(v)) + total32(_mm256_extracti128_si256(v, 1));
+}
+#endif
+
 // Structure tensor of the template gradients and their plain sums, in (128 x grey/px)^2 and
 // 128 x grey/px (the arrays hold twice the gradients).
 struct GradientSums {
@@ -75,6 +96,20 @@ struct GradientSums {
 GradientSums gradient_sums(const Px* gx, const Px* gy, int nn) {
   std::int64_t sxx = 0, sxy = 0, syy = 0, sx = 0, sy = 0;
   int k = 0;
+#if defined(__AVX2__)
+  if (nn >= kPxLanes16) {
+    __m256i axx = _mm256_setzero_si256(), axy = axx, ayy = axx, ax = axx, ay = axx;
+    for (; k + kPxLanes16 <= nn; k += kPxLanes16) {
+      const __m256i a = load_px16(gx + k), b = load_px16(gy + k);
+      axx = add_products(axx, a, a);
+      axy = add_products(axy, a, b);
+      ayy = add_products(ayy, b, b);
+      ax = add_values(ax, a);
+      ay = add_values(ay, b);
+    }
+    sxx = total64(axx), sxy = total64(axy), syy = total64(ayy), sx = total32(ax), sy = total32(ay);
+  }
+#endif
 #if defined(__ARM_NEON)
   int64x2_t axx = vdupq_n_s64(0), axy = axx, ayy = axx;
   int32x4_t ax = vdupq_n_s32(0), ay = ax;
@@ -86,7 +121,7 @@ GradientSums gradient_sums(const Px* gx, const Px* gy, int nn) {
     ax = add_values(ax, a);
     ay = add_values(ay, b);
   }
-  sxx = total64(axx), sxy = total64(axy), syy = total64(ayy), sx = total32(ax), sy = total32(ay);
+  sxx += total64(axx), sxy += total64(axy), syy += total64(ayy), sx += total32(ax), sy += total32(ay);
 #elif defined(__SSE2__)
   __m128i axx = _mm_setzero_si128(), axy = axx, ayy = axx, ax = axx, ay = axx;
   for (; k + kPxLanes <= nn; k += kPxLanes) {
@@ -97,7 +132,7 @@ GradientSums gradient_sums(const Px* gx, const Px* gy, int nn) {
     ax = add_values(ax, a);
     ay = add_values(ay, b);
   }
-  sxx = total64(axx), sxy = total64(axy), syy = total64(ayy), sx = total32(ax), sy = total32(ay);
+  sxx += total64(axx), sxy += total64(axy), syy += total64(ayy), sx += total32(ax), sy += total32(ay);
 #endif
   for (; k < nn; ++k) {
     const std::int64_t a = gx[k], b = gy[k];
@@ -121,6 +156,18 @@ ErrorSums error_sums_from(std::int64_t sd, std::int64_t sdx, std::int64_t sdy) {
 ErrorSums error_sums(const Px* t, const Px* w, const Px* gx, const Px* gy, int nn) {
   std::int64_t sd = 0, sdx = 0, sdy = 0;
   int k = 0;
+#if defined(__AVX2__)
+  if (nn >= kPxLanes16) {
+    __m256i adx = _mm256_setzero_si256(), ady = adx, ad = adx;
+    for (; k + kPxLanes16 <= nn; k += kPxLanes16) {
+      const __m256i d = _mm256_sub_epi16(load_px16(t + k), load_px16(w + k));
+      ad = add_values(ad, d);
+      adx = add_products(adx, d, load_px16(gx + k));
+      ady = add_products(ady, d, load_px16(gy + k));
+    }
+    sd = total32(ad), sdx = total64(adx), sdy = total64(ady);
+  }
+#endif
 #if defined(__ARM_NEON)
   int64x2_t adx = vdupq_n_s64(0), ady = adx;
   int32x4_t ad = vdupq_n_s32(0);
@@ -130,7 +177,7 @@ ErrorSums error_sums(const Px* t, const Px* w, const Px* gx, const Px* gy, int n
     adx = add_products(adx, d, load_px(gx + k));
     ady = add_products(ady, d, load_px(gy + k));
   }
-  sd = total32(ad), sdx = total64(adx), sdy = total64(ady);
+  sd += total32(ad), sdx += total64(adx), sdy += total64(ady);
 #elif defined(__SSE2__)
   __m128i adx = _mm_setzero_si128(), ady = adx, ad = adx;
   for (; k + kPxLanes <= nn; k += kPxLanes) {
@@ -139,7 +186,7 @@ ErrorSums error_sums(const Px* t, const Px* w, const Px* gx, const Px* gy, int n
     adx = add_products(adx, d, load_px(gx + k));
     ady = add_products(ady, d, load_px(gy + k));
   }
-  sd = total32(ad), sdx = total64(adx), sdy = total64(ady);
+  sd += total32(ad), sdx += total64(adx), sdy += total64(ady);
 #endif
   for (; k < nn; ++k) {
     const std::int64_t d = t[k] - w[k];
@@ -326,7 +373,7 @@ inline SumVec chunk_sums(const std::uint8_t* r0, const std::uint8_t* r1, const W
 }
 
 // The sums of 16 samples (each source row read at i .. i + 16, 17 pixels): two chunks, on aarch64
-// in one step of 16-byte loads (the same integer sums; SSE2 gained nothing from it).
+// and AVX2 in one step of 16-byte loads (the same integer sums; SSE2 gained nothing from it).
 inline void chunk16_sums(const std::uint8_t* r0, const std::uint8_t* r1, const Weights& w, SumVec* lo, SumVec* hi) {
 #if defined(__ARM_NEON) && defined(__aarch64__)
   const uint8x16_t w00 = vdupq_n_u8(static_cast<std::uint8_t>(w.w00)), w01 = vdupq_n_u8(static_cast<std::uint8_t>(w.w01));
@@ -340,6 +387,14 @@ inline void chunk16_sums(const std::uint8_t* r0, const std::uint8_t* r1, const W
   h = vmlal_high_u8(h, b0, w10);
   *lo = vmlal_u8(l, vget_low_u8(b1), vget_low_u8(w11));
   *hi = vmlal_high_u8(h, b1, w11);
+#elif defined(__AVX2__)
+  auto px16 = [](const std::uint8_t* p) { return _mm256_cvtepu8_epi16(_mm_loadu_si128(reinterpret_cast<const __m128i*>(p))); };
+  __m256i s = _mm256_mullo_epi16(px16(r0), _mm256_set1_epi16(static_cast<short>(w.w00)));
+  s = _mm256_add_epi16(s, _mm256_mullo_epi16(px16(r0 + 1), _mm256_set1_epi16(static_cast<short>(w.w01))));
+  s = _mm256_add_epi16(s, _mm256_mullo_epi16(px16(r1), _mm256_set1_epi16(static_cast<short>(w.w10))));
+  s = _mm256_add_epi16(s, _mm256_mullo_epi16(px16(r1 + 1), _mm256_set1_epi16(static_cast<short>(w.w11))));
+  *lo = _mm256_castsi256_si128(s);
+  *hi = _mm256_extracti128_si256(s, 1);
 #else
   *lo = chunk_sums(r0, r1, w);
   *hi = chunk_sums(r0 + kChunk, r1 + kChunk, w);

@@ -93,10 +93,40 @@ TEST_CASE("a flat image with sensor-like noise yields no corners (absolute respo
   CHECK(det.detect(img.view(), 50, ums::DetectorOptions{}, pts) == 0);
 }
 
-TEST_CASE("the separable Shi-Tomasi response equals the direct 3x3 sum bit for bit, extreme gradients included") {
-  // Random pixels with a band of 0/255 single-pixel checkers: Sobel magnitudes up to 4 * 255, where
-  // nine squared products come closest to 2^24 (the bound that keeps every float sum exact).
-  const int w = 97, h = 61;
+namespace {
+
+// The direct form of the response at (x, y): Sobel products of the 3x3 neighbourhood summed
+// row by row, one pixel at a time (no vector lanes).
+float direct_response(const ums::ImageView& v, int x, int y, float* trace = nullptr) {
+  float sa = 0.0f, sb = 0.0f, sc = 0.0f;
+  for (int j = -1; j <= 1; ++j) {
+    float ra = 0.0f, rb = 0.0f, rc = 0.0f;
+    for (int i = -1; i <= 1; ++i) {
+      const int cx = x + i, cy = y + j;
+      const std::uint8_t* r0 = v.row(cy - 1);
+      const std::uint8_t* r1 = v.row(cy);
+      const std::uint8_t* r2 = v.row(cy + 1);
+      const float dx = static_cast<float>((r0[cx + 1] - r0[cx - 1]) + 2 * (r1[cx + 1] - r1[cx - 1]) + (r2[cx + 1] - r2[cx - 1]));
+      const float dy = static_cast<float>((r2[cx - 1] - r0[cx - 1]) + 2 * (r2[cx] - r0[cx]) + (r2[cx + 1] - r0[cx + 1]));
+      ra += dx * dx;
+      rb += dx * dy;
+      rc += dy * dy;
+    }
+    sa += ra;
+    sb += rb;
+    sc += rc;
+  }
+  const float k = 1.0f / (8.0f * 8.0f * 9.0f);
+  sa *= k;
+  sb *= k;
+  sc *= k;
+  if (trace != nullptr) *trace = sa + sc;
+  return 0.5f * ((sa + sc) - std::sqrt((sa - sc) * (sa - sc) + 4.0f * sb * sb));
+}
+
+// Random pixels with a band of 0/255 single-pixel checkers: Sobel magnitudes up to 4 * 255, where
+// nine squared products come closest to 2^24 (the bound that keeps every float sum exact).
+ums::test::GreyImage random_with_checker_band(int w, int h) {
   ums::test::GreyImage img(w, h);
   std::uint32_t s = 2463534242u;
   for (int y = 0; y < h; ++y) {
@@ -107,6 +137,14 @@ TEST_CASE("the separable Shi-Tomasi response equals the direct 3x3 sum bit for b
       img.at(x, y) = (y >= 20 && y < 30) ? static_cast<std::uint8_t>(((x + y) & 1) * 255) : static_cast<std::uint8_t>(s >> 24);
     }
   }
+  return img;
+}
+
+}  // namespace
+
+TEST_CASE("the separable Shi-Tomasi response equals the direct 3x3 sum bit for bit, extreme gradients included") {
+  const int w = 97, h = 61;
+  const ums::test::GreyImage img = random_with_checker_band(w, h);
   ums::CornerDetector det(w, h);
   det.clear_mask();
   Eigen::Vector2f pts[4];
@@ -127,32 +165,9 @@ TEST_CASE("the separable Shi-Tomasi response equals the direct 3x3 sum bit for b
         missing += (x >= b - 1 && x <= w - b && y >= b - 1 && y <= h - b) ? 1 : 0;
         continue;
       }
-      // The direct form: Sobel products of the 3x3 neighbourhood summed row by row.
-      float sa = 0.0f, sb = 0.0f, sc = 0.0f;
-      for (int j = -1; j <= 1; ++j) {
-        float ra = 0.0f, rb = 0.0f, rc = 0.0f;
-        for (int i = -1; i <= 1; ++i) {
-          const int cx = x + i, cy = y + j;
-          const std::uint8_t* r0 = v.row(cy - 1);
-          const std::uint8_t* r1 = v.row(cy);
-          const std::uint8_t* r2 = v.row(cy + 1);
-          const float dx = static_cast<float>((r0[cx + 1] - r0[cx - 1]) + 2 * (r1[cx + 1] - r1[cx - 1]) + (r2[cx + 1] - r2[cx - 1]));
-          const float dy = static_cast<float>((r2[cx - 1] - r0[cx - 1]) + 2 * (r2[cx] - r0[cx]) + (r2[cx + 1] - r0[cx + 1]));
-          ra += dx * dx;
-          rb += dx * dy;
-          rc += dy * dy;
-        }
-        sa += ra;
-        sb += rb;
-        sc += rc;
-      }
-      const float k = 1.0f / (8.0f * 8.0f * 9.0f);
-      sa *= k;
-      sb *= k;
-      sc *= k;
-      const float ref = 0.5f * ((sa + sc) - std::sqrt((sa - sc) * (sa - sc) + 4.0f * sb * sb));
-      mismatches += det.response(x, y) != ref ? 1 : 0;
-      largest = std::max(largest, sa + sc);
+      float trace = 0.0f;
+      mismatches += det.response(x, y) != direct_response(v, x, y, &trace) ? 1 : 0;
+      largest = std::max(largest, trace);
     }
   }
   INFO("largest Ixx + Iyy " << largest << " (grey/px)^2");
@@ -160,6 +175,32 @@ TEST_CASE("the separable Shi-Tomasi response equals the direct 3x3 sum bit for b
   CHECK(mismatches == 0);
   CHECK(nonzero_border == 0);
   CHECK(missing == 0);
+}
+
+TEST_CASE("between mask disks, runs of every length give the direct 3x3 response bit for bit") {
+  // Disks of growing radius along the rows leave free runs from 1 to tens of pixels: the
+  // kernels' widest steps, their overlapping last steps, narrower steps and single pixels.
+  const int w = 131, h = 61;
+  const ums::test::GreyImage img = random_with_checker_band(w, h);
+  ums::CornerDetector det(w, h);
+  det.clear_mask();
+  for (int y = 4, r = 2; y < h; y += 7, ++r)
+    for (int x = y % 11; x < w; x += 2 * r + 1 + (x % 5)) det.block_disk(Eigen::Vector2f(x, y), static_cast<float>(r));
+  Eigen::Vector2f pts[4];
+  (void)det.detect(img.view(), 4, ums::DetectorOptions{}, pts);
+  int computed = 0, mismatches = 0;
+  for (int y = 2; y < h - 2; ++y) {
+    for (int x = 2; x < w - 2; ++x) {
+      const float r = det.response(x, y);
+      if (!std::isfinite(r)) continue;
+      ++computed;
+      mismatches += r != direct_response(img.view(), x, y) ? 1 : 0;
+    }
+  }
+  INFO(computed << " pixels computed of " << (w - 4) * (h - 4));
+  CHECK(computed > 1000);
+  CHECK(computed < (w - 4) * (h - 4));  // the mask did cut the rows into runs
+  CHECK(mismatches == 0);
 }
 
 TEST_CASE("under a mask the response is computed around free pixels only, equal to the unmasked one") {
