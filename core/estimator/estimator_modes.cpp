@@ -285,12 +285,15 @@ void Estimator::slide_window(EstimatorTiming* timing) {
   WindowFrame& newest = window_->newest();
   const bool vio = inertial_window();
   if (newest.keyframe) {
-    // An outlier kept in round 1's problem (second_round) and seen from the oldest frame would
-    // enter the prior: the problem is built again without the outliers.
-    if (vio && builder_->rebuild_without_outliers_seen_from(window_->slot_at(0))) ++stats_.second_round_rebuilds;
     int ids[2 + capacity::kMaxLandmarks];
     int outliers = 0;
-    const int n = vio ? builder_->oldest_frame_blocks(ids, &outliers) : 0;
+    int n = vio ? builder_->oldest_frame_blocks(ids, &outliers) : 0;
+    // An outlier kept in round 1's problem (second_round) and seen from the oldest frame would
+    // enter the prior: the problem is built again without the outliers.
+    if (outliers > 0 && builder_->rebuild_without_kept_outliers()) {
+      ++stats_.second_round_rebuilds;
+      n = builder_->oldest_frame_blocks(ids, &outliers);
+    }
     stats_.outliers_into_prior += static_cast<std::uint64_t>(outliers);
     if (vio && !marginalizer_->adopt(builder_->problem(), builder_->blocks(), ids, n))
       ++stats_.marginalization_failures;

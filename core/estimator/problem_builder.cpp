@@ -468,19 +468,12 @@ int ProblemBuilder::mark_outliers() {
   return marked;
 }
 
-bool ProblemBuilder::rebuild_without_outliers_seen_from(int slot) {
+bool ProblemBuilder::rebuild_without_kept_outliers() {
   if (!outliers_kept_) return false;
-  bool seen = false;
-  for (int i = 0; i < n_selected_ && !seen; ++i) {
-    const Landmark& l = landmarks_->at_pool(chosen_[i]);
-    seen = l.outlier && l.find_obs(slot) >= 0;
-  }
-  if (seen) {
-    reuse_selection_ = true;
-    build(built_spec_);
-    reuse_selection_ = false;
-  }
-  return seen;
+  reuse_selection_ = true;
+  build(built_spec_);
+  reuse_selection_ = false;
+  return true;
 }
 
 // The last build's landmarks without the marked ones, in their order: the round 1 they were

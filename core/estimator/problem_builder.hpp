@@ -99,11 +99,11 @@ class ProblemBuilder {
   // released, a build leaves them out.
   void keep_outliers() { outliers_kept_ = true; }
   void forget_kept_outliers() { outliers_kept_ = false; }
-  // With kept outliers, one of them seen from window slot `slot` (the oldest frame's, whose
-  // marginalization would take it into the prior): the last problem is built again with its
-  // landmarks but them (no others in their places), not solved (the marginalization then
-  // linearizes its terms itself). True when it was.
-  bool rebuild_without_outliers_seen_from(int slot);
+  // With kept outliers: the last problem is built again with its landmarks but them (no others
+  // in their places), not solved (a marginalization then linearizes its terms itself). True when
+  // it was. For a marginalization that would take a kept outlier into the prior
+  // (oldest_frame_blocks counts them).
+  bool rebuild_without_kept_outliers();
   // Marks the landmarks of the last solve with an observation beyond outlier_rad (or a depth out
   // of range: depth dropped, re-triangulated later); returns how many were marked.
   int mark_outliers();
