@@ -19,6 +19,21 @@ template <int NR, int NC>
 __attribute__((always_inline)) inline void tile(double* S, long ld, int i0, int j0, const TileRow* rows, int n) {
   constexpr int P = NR / 2;
   double* c0 = S + j0 * ld + i0;
+#if defined(__AVX__)
+  if constexpr (NR == 4) {  // a column's 4 rows in one quad (double_pair.hpp): the same doubles
+    Quad q[NC];
+    for (int j = 0; j < NC; ++j) q[j] = load_quad(c0 + j * ld);
+    for (int k = 0; k < n; ++k) {
+      const Quad v = load_quad(rows[k].v + i0);
+      for (int j = 0; j < NC; ++j) {
+        const double a = rows[k].u[2 * j];
+        q[j] = q[j] - Quad{a, a, a, a} * v;
+      }
+    }
+    for (int j = 0; j < NC; ++j) store_quad(c0 + j * ld, q[j]);
+    return;
+  }
+#endif
   Pair s[NC][P];
   for (int j = 0; j < NC; ++j)
     for (int p = 0; p < P; ++p) s[j][p] = load_pair(c0 + j * ld + 2 * p);
@@ -42,6 +57,22 @@ __attribute__((always_inline)) inline void tile_marked(double* S, long ld, int i
                                                       std::uint32_t use) {
   constexpr int P = NR / 2;
   double* c0 = S + j0 * ld + i0;
+#if defined(__AVX__)
+  if constexpr (NR == 4) {
+    Quad q[NC];
+    for (int j = 0; j < NC; ++j) q[j] = load_quad(c0 + j * ld);
+    for (; use != 0; use &= use - 1) {
+      const int m = __builtin_ctz(use);
+      const Quad v = load_quad(rows.v[m] + i0);
+      for (int j = 0; j < NC; ++j) {
+        const double a = rows.u2[m][2 * (j0 + j)];
+        q[j] = q[j] - Quad{a, a, a, a} * v;
+      }
+    }
+    for (int j = 0; j < NC; ++j) store_quad(c0 + j * ld, q[j]);
+    return;
+  }
+#endif
   Pair s[NC][P];
   for (int j = 0; j < NC; ++j)
     for (int p = 0; p < P; ++p) s[j][p] = load_pair(c0 + j * ld + 2 * p);

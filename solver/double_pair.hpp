@@ -23,14 +23,50 @@ inline Pair load_pair(const double* p) {
 
 inline void store_pair(double* p, Pair v) { std::memcpy(p, &v, sizeof v); }
 
+#if defined(__AVX__)
+// Four doubles in one AVX register (the x86-64-v3 host build, cmake/UmsHostIsa.cmake): the
+// kernels below take whole quads first, then a pair, with every element's formula unchanged, so
+// they give the same doubles as on SSE2 and NEON.
+typedef double Quad __attribute__((vector_size(32)));
+inline Quad load_quad(const double* p) {
+  Quad v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+inline void store_quad(double* p, Quad v) { std::memcpy(p, &v, sizeof v); }
+inline Quad join_pairs(Pair lo, Pair hi) { return __builtin_shufflevector(lo, hi, 0, 1, 2, 3); }
+#endif
+
+// p[0..N) = 0. With AVX in whole quads: GCC makes a zero fill of this size a `rep stos`, whose
+// start-up cost is most of the fill's time for a few hundred bytes.
+template <int N>
+inline void zero_doubles(double* p) {
+#if defined(__AVX__)
+  int i = 0;
+  for (; i + 4 <= N; i += 4) store_quad(p + i, Quad{0.0, 0.0, 0.0, 0.0});
+  for (; i < N; ++i) p[i] = 0.0;
+#else
+  std::fill(p, p + N, 0.0);
+#endif
+}
+
 // y[0..n) -= c[0] x[0][0..n), then -= c[1] x[1][0..n), ... (M terms), in whole packets and one
 // scalar tail. GCC vectorizes the plain loops too, but behind an aliasing check, a peel and an
 // epilogue that cost more than the arithmetic at the solver's lengths (6..100).
 template <int M>
 inline void sub_scaled_terms(double* y, const double* c, const double* const* x, int n) {
+  int i = 0;
+#if defined(__AVX__)
+  Quad qc[M];
+  for (int k = 0; k < M; ++k) qc[k] = Quad{c[k], c[k], c[k], c[k]};
+  for (; i + 4 <= n; i += 4) {
+    Quad v = load_quad(y + i);
+    for (int k = 0; k < M; ++k) v = v - qc[k] * load_quad(x[k] + i);
+    store_quad(y + i, v);
+  }
+#endif
   Pair vc[M];
   for (int k = 0; k < M; ++k) vc[k] = Pair{c[k], c[k]};
-  int i = 0;
   for (; i + 2 <= n; i += 2) {
     Pair v = load_pair(y + i);
     for (int k = 0; k < M; ++k) v = v - vc[k] * load_pair(x[k] + i);
@@ -106,8 +142,16 @@ inline void nonzero_rows(const double* J, int rows, int t, int* r0, int* r1) {
 template <int N>
 __attribute__((always_inline)) inline void col_update2(double* col, const Pair* a0, const Pair* a1, double b0,
                                                        double b1) {
+  int i = 0;
+#if defined(__AVX__)
+  const Quad qb0 = {b0, b0, b0, b0}, qb1 = {b1, b1, b1, b1};
+  for (; 2 * i + 4 <= N; i += 2) {
+    const Quad q0 = join_pairs(a0[i], a0[i + 1]), q1 = join_pairs(a1[i], a1[i + 1]);
+    store_quad(col + 2 * i, load_quad(col + 2 * i) + (q0 * qb0 + q1 * qb1));
+  }
+#endif
   const Pair vb0 = {b0, b0}, vb1 = {b1, b1};
-  for (int i = 0; i < N / 2; ++i) {
+  for (; i < N / 2; ++i) {
     store_pair(col + 2 * i, load_pair(col + 2 * i) + (a0[i] * vb0 + a1[i] * vb1));
   }
 }
@@ -140,8 +184,16 @@ __attribute__((always_inline)) inline void add_jtj_2x6(double* Hb, Eigen::Index 
 template <int N>
 __attribute__((always_inline)) inline void col_update3(double* col, const Pair* a0, const Pair* a1, const Pair* a2,
                                                        double b0, double b1, double b2) {
+  int i = 0;
+#if defined(__AVX__)
+  const Quad qb0 = {b0, b0, b0, b0}, qb1 = {b1, b1, b1, b1}, qb2 = {b2, b2, b2, b2};
+  for (; 2 * i + 4 <= N; i += 2) {
+    const Quad q0 = join_pairs(a0[i], a0[i + 1]), q1 = join_pairs(a1[i], a1[i + 1]), q2 = join_pairs(a2[i], a2[i + 1]);
+    store_quad(col + 2 * i, load_quad(col + 2 * i) + (q0 * qb0 + q1 * qb1 + q2 * qb2));
+  }
+#endif
   const Pair vb0 = {b0, b0}, vb1 = {b1, b1}, vb2 = {b2, b2};
-  for (int i = 0; i < N / 2; ++i) {
+  for (; i < N / 2; ++i) {
     store_pair(col + 2 * i, load_pair(col + 2 * i) + (a0[i] * vb0 + a1[i] * vb1 + a2[i] * vb2));
   }
 }

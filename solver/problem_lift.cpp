@@ -28,7 +28,7 @@ void Problem::begin_lift(int l) {
   const int n = lm_cpl_begin_[l + 1] - lm_cpl_begin_[l];
   for (int i = 0; i < n; ++i) {
     lift_used_[i] = false;
-    std::fill(lift_X_[i], lift_X_[i] + 18, 0.0);
+    zero_doubles<18>(lift_X_[i]);
   }
 }
 

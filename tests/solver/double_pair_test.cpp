@@ -129,5 +129,42 @@ TEST_CASE("add_jtj_rows: rows holding a zero factor and the lower triangle left 
   CHECK(h == 1.5);
 }
 
+
+TEST_CASE("add_jtj_2x6 and col_update3 give the doubles of the per-entry formulas", "[solver][double_pair]") {
+  std::mt19937 rng(19);
+  const long ld = 9;  // columns apart by more than 6, and an odd stride
+  for (int trial = 0; trial < 20; ++trial) {
+    const std::vector<double> A = random_values(rng, 12), C = random_values(rng, 12);
+    for (bool upper : {true, false}) {
+      std::vector<double> H = random_values(rng, static_cast<int>(ld) * 6);
+      std::vector<double> ref = H;
+      const std::vector<double>& B = upper ? A : C;
+      for (int j = 0; j < 6; ++j)
+        for (int i = 0; i < (upper ? j + 1 : 6); ++i) ref[j * ld + i] += A[i] * B[j] + A[6 + i] * B[6 + j];
+      if (upper)
+        add_jtj_2x6<true>(H.data(), ld, A.data(), A.data());
+      else
+        add_jtj_2x6<false>(H.data(), ld, A.data(), C.data());
+      for (int j = 0; j < 6; ++j)
+        for (int i = 0; i < (upper ? j + 1 : static_cast<int>(ld)); ++i) REQUIRE(H[j * ld + i] == ref[j * ld + i]);
+    }
+    // col[0..6) += a0 b0 + a1 b1 + a2 b2, the element after it untouched.
+    const std::vector<double> a = random_values(rng, 18), b = random_values(rng, 3);
+    Pair p[3][3];
+    for (int k = 0; k < 3; ++k)
+      for (int i = 0; i < 3; ++i) p[k][i] = load_pair(a.data() + 6 * k + 2 * i);
+    std::vector<double> col = random_values(rng, 7);
+    std::vector<double> ref = col;
+    for (int i = 0; i < 6; ++i) ref[i] += a[i] * b[0] + a[6 + i] * b[1] + a[12 + i] * b[2];
+    col_update3<6>(col.data(), p[0], p[1], p[2], b[0], b[1], b[2]);
+    for (int i = 0; i < 7; ++i) REQUIRE(col[i] == ref[i]);
+  }
+  double z[19];
+  std::fill(z, z + 19, 1.0);
+  zero_doubles<18>(z);
+  CHECK(std::count(z, z + 18, 0.0) == 18);
+  CHECK(z[18] == 1.0);
+}
+
 }  // namespace
 }  // namespace ums::solver
