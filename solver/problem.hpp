@@ -226,6 +226,7 @@ class Problem {
   // A^T A, A^T r, A^T J_c and its other blocks' terms, the end forms the host and landmark terms.
   void begin_lift(int l);
   void accumulate_lifted(const Residual& rb, const double* r);
+  void add_lift_sums(const double* A, double r0, double r1);
   bool finish_lift(int l);
   void add_lift_couplings(int l, const double* G);
   bool lift_jacobian(int l, double* G);  // G = d p / d (host, landmark) of landmark l's lift

@@ -32,6 +32,21 @@ void Problem::begin_lift(int l) {
   }
 }
 
+// S += A^T A (its upper triangle), s += A^T r, each entry A[k] A[m] + A[3 + k] A[3 + m] (and
+// A[k] r0 + A[3 + k] r1) added to the sum. The pairs are loaded from the workspace itself: GCC
+// paired the entries of a local copy of A through the stack, two 8-byte stores read back as one
+// 16-byte load, which the store buffer cannot forward (a fifth of the function's time).
+void Problem::add_lift_sums(const double* A, double r0, double r1) {
+  const Pair a01 = load_pair(A), a12 = load_pair(A + 1), a34 = load_pair(A + 3), a45 = load_pair(A + 4);
+  const Pair a0 = {A[0], A[0]}, a1 = {A[1], A[1]}, a3 = {A[3], A[3]}, a4 = {A[4], A[4]};
+  store_pair(lift_S_, load_pair(lift_S_) + (a0 * a01 + a3 * a34));      // S00, S01
+  lift_S_[2] += A[0] * A[2] + A[3] * A[5];                               // S02
+  store_pair(lift_S_ + 4, load_pair(lift_S_ + 4) + (a1 * a12 + a4 * a45));  // S11, S12
+  lift_S_[8] += A[2] * A[2] + A[5] * A[5];                               // S22
+  store_pair(lift_s_, load_pair(lift_s_) + (a01 * Pair{r0, r0} + a34 * Pair{r1, r1}));
+  lift_s_[2] += A[2] * r0 + A[5] * r1;
+}
+
 // One lifted residual: A = d r / d p in its host's Jacobian slot; its other blocks are 6-dof
 // (fast2) and 2 rows.
 void Problem::accumulate_lifted(const Residual& rb, const double* r) {
@@ -40,10 +55,7 @@ void Problem::accumulate_lifted(const Residual& rb, const double* r) {
   const double* Aw = jac_ws_[rb.lift_pos];  // 2 x 3 row-major
   const double A[6] = {Aw[0], Aw[1], Aw[2], Aw[3], Aw[4], Aw[5]};
   const double r0 = r[0], r1 = r[1];
-  for (int k = 0; k < 3; ++k) {
-    for (int m = k; m < 3; ++m) lift_S_[3 * k + m] += A[k] * A[m] + A[3 + k] * A[3 + m];
-    lift_s_[k] += A[k] * r0 + A[3 + k] * r1;
-  }
+  add_lift_sums(Aw, r0, r1);
   lift_host_slot_ = rb.slot[rb.lift_pos];
   if (mark_touched_) touched_[rb.blocks[rb.lift_pos]] = true;
   const int base = lm_cpl_begin_[rb.landmark];
