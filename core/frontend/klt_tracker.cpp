@@ -87,6 +87,76 @@ inline std::int64_t total32(__m256i v) {
 }
 #endif
 
+// The vector types and the few operations the window sums need beyond the overloads above, per
+// instruction set: kN elements per step.
+#if defined(__ARM_NEON)
+struct PxLanes {
+  static constexpr int kN = kPxLanes;
+  using Acc64 = int64x2_t;
+  using Acc32 = int32x4_t;
+  static int16x8_t load(const Px* p) { return load_px(p); }
+  static int16x8_t sub(int16x8_t a, int16x8_t b) { return vsubq_s16(a, b); }
+  static Acc64 zero64() { return vdupq_n_s64(0); }
+  static Acc32 zero32() { return vdupq_n_s32(0); }
+};
+#elif defined(__SSE2__)
+struct PxLanes {
+  static constexpr int kN = kPxLanes;
+  using Acc64 = __m128i;
+  using Acc32 = __m128i;
+  static __m128i load(const Px* p) { return load_px(p); }
+  static __m128i sub(__m128i a, __m128i b) { return _mm_sub_epi16(a, b); }
+  static __m128i zero64() { return _mm_setzero_si128(); }
+  static __m128i zero32() { return _mm_setzero_si128(); }
+};
+#endif
+#if defined(__AVX2__)
+struct PxLanes16 {
+  static constexpr int kN = kPxLanes16;
+  using Acc64 = __m256i;
+  using Acc32 = __m256i;
+  static __m256i load(const Px* p) { return load_px16(p); }
+  static __m256i sub(__m256i a, __m256i b) { return _mm256_sub_epi16(a, b); }
+  static __m256i zero64() { return _mm256_setzero_si256(); }
+  static __m256i zero32() { return _mm256_setzero_si256(); }
+};
+#endif
+
+#if defined(__ARM_NEON) || defined(__SSE2__)
+// s[0..5) += sum gx gx, gx gy, gy gy, gx, gy over elements k, k + 1, ... in whole steps of L::kN;
+// returns the first element left.
+template <class L>
+inline int add_gradient_lanes(const Px* gx, const Px* gy, int nn, int k, std::int64_t* s) {
+  typename L::Acc64 axx = L::zero64(), axy = axx, ayy = axx;
+  typename L::Acc32 ax = L::zero32(), ay = ax;
+  for (; k + L::kN <= nn; k += L::kN) {
+    const auto a = L::load(gx + k), b = L::load(gy + k);
+    axx = add_products(axx, a, a);
+    axy = add_products(axy, a, b);
+    ayy = add_products(ayy, b, b);
+    ax = add_values(ax, a);
+    ay = add_values(ay, b);
+  }
+  s[0] += total64(axx), s[1] += total64(axy), s[2] += total64(ayy), s[3] += total32(ax), s[4] += total32(ay);
+  return k;
+}
+
+// s[0..3) += sum d, d gx, d gy with d = T - W, the same way.
+template <class L>
+inline int add_error_lanes(const Px* t, const Px* w, const Px* gx, const Px* gy, int nn, int k, std::int64_t* s) {
+  typename L::Acc64 adx = L::zero64(), ady = adx;
+  typename L::Acc32 ad = L::zero32();
+  for (; k + L::kN <= nn; k += L::kN) {
+    const auto d = L::sub(L::load(t + k), L::load(w + k));
+    ad = add_values(ad, d);
+    adx = add_products(adx, d, L::load(gx + k));
+    ady = add_products(ady, d, L::load(gy + k));
+  }
+  s[0] += total32(ad), s[1] += total64(adx), s[2] += total64(ady);
+  return k;
+}
+#endif
+
 // Structure tensor of the template gradients and their plain sums, in (128 x grey/px)^2 and
 // 128 x grey/px (the arrays hold twice the gradients).
 struct GradientSums {
@@ -94,46 +164,15 @@ struct GradientSums {
 };
 
 GradientSums gradient_sums(const Px* gx, const Px* gy, int nn) {
-  std::int64_t sxx = 0, sxy = 0, syy = 0, sx = 0, sy = 0;
+  std::int64_t v[5] = {0, 0, 0, 0, 0};
   int k = 0;
 #if defined(__AVX2__)
-  if (nn >= kPxLanes16) {
-    __m256i axx = _mm256_setzero_si256(), axy = axx, ayy = axx, ax = axx, ay = axx;
-    for (; k + kPxLanes16 <= nn; k += kPxLanes16) {
-      const __m256i a = load_px16(gx + k), b = load_px16(gy + k);
-      axx = add_products(axx, a, a);
-      axy = add_products(axy, a, b);
-      ayy = add_products(ayy, b, b);
-      ax = add_values(ax, a);
-      ay = add_values(ay, b);
-    }
-    sxx = total64(axx), sxy = total64(axy), syy = total64(ayy), sx = total32(ax), sy = total32(ay);
-  }
+  if (nn >= kPxLanes16) k = add_gradient_lanes<PxLanes16>(gx, gy, nn, k, v);
 #endif
-#if defined(__ARM_NEON)
-  int64x2_t axx = vdupq_n_s64(0), axy = axx, ayy = axx;
-  int32x4_t ax = vdupq_n_s32(0), ay = ax;
-  for (; k + kPxLanes <= nn; k += kPxLanes) {
-    const int16x8_t a = load_px(gx + k), b = load_px(gy + k);
-    axx = add_products(axx, a, a);
-    axy = add_products(axy, a, b);
-    ayy = add_products(ayy, b, b);
-    ax = add_values(ax, a);
-    ay = add_values(ay, b);
-  }
-  sxx += total64(axx), sxy += total64(axy), syy += total64(ayy), sx += total32(ax), sy += total32(ay);
-#elif defined(__SSE2__)
-  __m128i axx = _mm_setzero_si128(), axy = axx, ayy = axx, ax = axx, ay = axx;
-  for (; k + kPxLanes <= nn; k += kPxLanes) {
-    const __m128i a = load_px(gx + k), b = load_px(gy + k);
-    axx = add_products(axx, a, a);
-    axy = add_products(axy, a, b);
-    ayy = add_products(ayy, b, b);
-    ax = add_values(ax, a);
-    ay = add_values(ay, b);
-  }
-  sxx += total64(axx), sxy += total64(axy), syy += total64(ayy), sx += total32(ax), sy += total32(ay);
+#if defined(__ARM_NEON) || defined(__SSE2__)
+  k = add_gradient_lanes<PxLanes>(gx, gy, nn, k, v);
 #endif
+  std::int64_t sxx = v[0], sxy = v[1], syy = v[2], sx = v[3], sy = v[4];
   for (; k < nn; ++k) {
     const std::int64_t a = gx[k], b = gy[k];
     sxx += a * a, sxy += a * b, syy += b * b, sx += a, sy += b;
@@ -154,40 +193,15 @@ ErrorSums error_sums_from(std::int64_t sd, std::int64_t sdx, std::int64_t sdy) {
 }
 
 ErrorSums error_sums(const Px* t, const Px* w, const Px* gx, const Px* gy, int nn) {
-  std::int64_t sd = 0, sdx = 0, sdy = 0;
+  std::int64_t v[3] = {0, 0, 0};
   int k = 0;
 #if defined(__AVX2__)
-  if (nn >= kPxLanes16) {
-    __m256i adx = _mm256_setzero_si256(), ady = adx, ad = adx;
-    for (; k + kPxLanes16 <= nn; k += kPxLanes16) {
-      const __m256i d = _mm256_sub_epi16(load_px16(t + k), load_px16(w + k));
-      ad = add_values(ad, d);
-      adx = add_products(adx, d, load_px16(gx + k));
-      ady = add_products(ady, d, load_px16(gy + k));
-    }
-    sd = total32(ad), sdx = total64(adx), sdy = total64(ady);
-  }
+  if (nn >= kPxLanes16) k = add_error_lanes<PxLanes16>(t, w, gx, gy, nn, k, v);
 #endif
-#if defined(__ARM_NEON)
-  int64x2_t adx = vdupq_n_s64(0), ady = adx;
-  int32x4_t ad = vdupq_n_s32(0);
-  for (; k + kPxLanes <= nn; k += kPxLanes) {
-    const int16x8_t d = vsubq_s16(load_px(t + k), load_px(w + k));
-    ad = add_values(ad, d);
-    adx = add_products(adx, d, load_px(gx + k));
-    ady = add_products(ady, d, load_px(gy + k));
-  }
-  sd += total32(ad), sdx += total64(adx), sdy += total64(ady);
-#elif defined(__SSE2__)
-  __m128i adx = _mm_setzero_si128(), ady = adx, ad = adx;
-  for (; k + kPxLanes <= nn; k += kPxLanes) {
-    const __m128i d = _mm_sub_epi16(load_px(t + k), load_px(w + k));
-    ad = add_values(ad, d);
-    adx = add_products(adx, d, load_px(gx + k));
-    ady = add_products(ady, d, load_px(gy + k));
-  }
-  sd += total32(ad), sdx += total64(adx), sdy += total64(ady);
+#if defined(__ARM_NEON) || defined(__SSE2__)
+  k = add_error_lanes<PxLanes>(t, w, gx, gy, nn, k, v);
 #endif
+  std::int64_t sd = v[0], sdx = v[1], sdy = v[2];
   for (; k < nn; ++k) {
     const std::int64_t d = t[k] - w[k];
     sd += d, sdx += d * gx[k], sdy += d * gy[k];
