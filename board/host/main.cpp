@@ -4,16 +4,16 @@
 #include <vector>
 
 #include "board/host/commands.hpp"
+#include "board/host/host_isa.hpp"
 
 namespace {
 
-// A host build for x86-64-v3 (cmake/UmsHostIsa.cmake) copied to a machine without AVX2 would die
-// on an illegal instruction somewhere inside a replay; say why instead, before any work.
+// A host build for x86-64-v3 (cmake/UmsHostIsa.cmake) copied to a machine without it would die on
+// an illegal instruction somewhere inside a replay; say why instead, before any work.
 bool host_isa_supported() {
-#if defined(__AVX2__) && defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-  __builtin_cpu_init();
-  if (!__builtin_cpu_supports("avx2")) {
-    std::fputs("umsvins: this build uses AVX2 (x86-64-v3) and this CPU has none; configure with "
+#if defined(__AVX2__) && defined(__x86_64__)
+  if (!ums::cli::host_runs_x86_64_v3()) {
+    std::fputs("umsvins: this build is for x86-64-v3 (AVX2, BMI2) and this CPU lacks part of it; configure with "
                "-DUMS_HOST_ISA=baseline\n",
                stderr);
     return false;
