@@ -177,9 +177,10 @@ TEST_CASE("the separable Shi-Tomasi response equals the direct 3x3 sum bit for b
   CHECK(missing == 0);
 }
 
-TEST_CASE("between mask disks, runs of every length give the direct 3x3 response bit for bit") {
-  // Disks of growing radius along the rows leave free runs from 1 to tens of pixels: the
-  // kernels' widest steps, their overlapping last steps, narrower steps and single pixels.
+TEST_CASE("between mask disks, the runs detection computes give the direct 3x3 response bit for bit") {
+  // Disks of growing radius along the rows leave free runs of many lengths; the response is
+  // computed over their column groups (8 pixels, and 1-2 pixels of padding): the kernels' widest
+  // steps, their overlapping last steps and the narrower steps.
   const int w = 131, h = 61;
   const ums::test::GreyImage img = random_with_checker_band(w, h);
   ums::CornerDetector det(w, h);
