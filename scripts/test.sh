@@ -38,6 +38,21 @@ run_suite() {  # name build_dir [cmake args...]
 mkdir -p "$root/build"
 if [[ "$want" == "host" || "$want" == "all" ]]; then
   run_suite host "$root/build/host" -DUMS_TEST_SPEC= || status=1
+  # A host build for x86-64-v3 (cmake/UmsHostIsa.cmake) runs the AVX2 kernels; their SSE2 siblings,
+  # what a baseline build (-DUMS_HOST_ISA=baseline) runs, get the front-end and solver tests here.
+  if grep -q "Host instruction set: x86-64-v3" "$root/build/host.configure.log" 2>/dev/null; then
+    echo "== host-sse2: the baseline x86-64 build's front-end and solver tests (the SSE2 kernels)"
+    sse2="$root/build/host-sse2"
+    if cmake -S "$root" -B "$sse2" -G Ninja -DCMAKE_BUILD_TYPE=Release -DUMS_HOST_ISA=baseline \
+         -DUMS_BUILD_BENCHMARKS=OFF -DUMS_TEST_SPEC= >"$sse2.configure.log" 2>&1 &&
+       cmake --build "$sse2" -j "$jobs" --target test_frontend test_solver >"$sse2.build.log" 2>&1; then
+      "$sse2/tests/core/frontend/test_frontend" >"$sse2.test.log" 2>&1 && "$sse2/tests/solver/test_solver" >>"$sse2.test.log" 2>&1 \
+        && grep -E "^All tests passed" "$sse2.test.log" \
+        || { tail -n 60 "$sse2.test.log"; echo "host-sse2: tests failed (log: $sse2.test.log)"; status=1; }
+    else
+      tail -n 60 "$sse2.build.log" 2>/dev/null; echo "host-sse2: configure or build failed (logs: $sse2.*.log)"; status=1
+    fi
+  fi
   echo "== fuzz smoke: each harness over its seeds (scripts/fuzz.sh all ${UMS_FUZZ_SMOKE_S:-seeds})"
   "$root/scripts/fuzz.sh" all "${UMS_FUZZ_SMOKE_S:-seeds}" || status=1
 fi
